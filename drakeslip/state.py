@@ -1,0 +1,65 @@
+"""State conventions shared by every part of drakeslip.
+
+Coordinates: x forward, z up, world frame, metres. The body is a point mass at (x, z).
+
+* ``ApexState(x, z, xdot)`` — the body at the top of a flight phase (vertical velocity zero); ``z`` is the
+  absolute body height in the world frame (not height above the terrain).
+* Leg angle ``theta`` — radians from vertical; **positive puts the foot ahead (+x) of the body**. It is
+  commanded at apex and held for the rest of the flight, so the foot sits at
+  ``(x + L0 sin(theta), z - L0 cos(theta))`` until touchdown. Between liftoff and the next apex the leg
+  is retracted (it is massless and cannot touch the ground).
+* ``touchdown_x`` — the x of the foot's contact point (the foothold).
+* Full state ``(x, z, xdot, zdot)``; in stance the foot is pinned at ``(foot_x, foot_z)``.
+"""
+from __future__ import annotations
+
+import enum
+import math
+from dataclasses import dataclass
+from typing import NamedTuple
+
+
+class ApexState(NamedTuple):
+    x: float
+    z: float
+    xdot: float
+
+    def validate(self, name: str = "apex") -> "ApexState":
+        for field_name, value in zip(self._fields, self):
+            if not math.isfinite(value):
+                raise ValueError(f"{name}.{field_name} must be finite, got {value!r}")
+        return self
+
+
+class FailureMode(enum.IntEnum):
+    """Why a hop failed. Codes are shared with the compiled backend (0 means no failure)."""
+
+    BODY_COLLISION = 1  # the body reaches the terrain (a top surface or a vertical face)
+    FOOT_COLLISION = 2  # the swinging foot strikes a vertical face, or lands in a ditch (see Terrain)
+    SLIP = 3            # during stance the leg force leaves the friction cone: |x-xf| > mu (z-zf)
+    BOTTOM_OUT = 4      # the leg compresses below min_leg_length
+    TRIP = 5            # at apex the commanded foot position is not above the terrain
+    STALL = 6           # no forward progress: xdot reaches 0, no apex follows liftoff, or the hop times out
+
+    @classmethod
+    def from_code(cls, code: int) -> "FailureMode | None":
+        return None if code == 0 else cls(int(code))
+
+
+@dataclass(frozen=True)
+class StepResult:
+    """Outcome of one apex-to-apex step f(a, t, theta).
+
+    ``ok`` — the hop reached the next apex with no failure; ``failure`` — the first failure, else None;
+    ``touchdown_x`` — the foothold (NaN if the foot never touched down); ``next_apex`` — None on failure;
+    ``time`` — seconds from the start apex to the next apex, or to the failure; ``end_state`` —
+    (x, z, xdot, zdot) at that moment (where and how the failure happened); ``work`` — integration steps.
+    """
+
+    ok: bool
+    failure: FailureMode | None
+    touchdown_x: float
+    next_apex: ApexState | None
+    time: float
+    end_state: tuple
+    work: int

@@ -1,0 +1,109 @@
+"""The apex-to-apex step map f(a, t, theta) with two backends: ``"fast"`` (compiled) and ``"drake"``."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import fast_step as fs
+from .params import SlipParams
+from .state import ApexState, FailureMode, StepResult
+from .terrain import Terrain
+
+BACKENDS = ("fast", "drake")
+
+
+def _check_inputs(apex, terrain: Terrain, params: SlipParams) -> ApexState:
+    if not isinstance(terrain, Terrain):
+        raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
+    if not isinstance(params, SlipParams):
+        raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
+    apex = ApexState(*map(float, apex)).validate()
+    ground = terrain.height_at(apex.x)
+    if apex.z <= ground:
+        raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+    return apex
+
+
+def _check_angle(leg_angle: float) -> float:
+    leg_angle = float(leg_angle)
+    if not math.isfinite(leg_angle) or abs(leg_angle) >= math.pi / 2:
+        raise ValueError(f"leg_angle must be finite and within (-pi/2, pi/2), got {leg_angle!r}")
+    return leg_angle
+
+
+def step(apex, leg_angle: float, terrain: Terrain, params: SlipParams | None = None, backend: str = "fast",
+         **backend_options) -> StepResult:
+    """One hop from ``apex`` with the leg commanded to ``leg_angle``: flight, touchdown, stance, liftoff and
+    flight to the next apex, stopping at the first failure."""
+    params = params or SlipParams()
+    apex = _check_inputs(apex, terrain, params)
+    leg_angle = _check_angle(leg_angle)
+    if backend == "fast":
+        return step_batch(apex, [leg_angle], terrain, params, **backend_options).result(0)
+    if backend == "drake":
+        from .simulate import drake_step
+
+        return drake_step(apex, leg_angle, terrain, params, **backend_options)
+    raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
+
+
+@dataclass(frozen=True)
+class BatchStepResult:
+    """Column arrays for a batch of steps (see StepResult): ``failure`` holds FailureMode codes, 0 = ok;
+    ``next_x/next_z/next_xdot`` are the next apex where ok, else the state at the failure."""
+
+    failure: np.ndarray
+    touchdown_x: np.ndarray
+    next_x: np.ndarray
+    next_z: np.ndarray
+    next_xdot: np.ndarray
+    end_zdot: np.ndarray
+    time: np.ndarray
+    work: np.ndarray
+
+    @property
+    def ok(self) -> np.ndarray:
+        return self.failure == 0
+
+    def __len__(self):
+        return self.failure.size
+
+    def result(self, i: int) -> StepResult:
+        ok = bool(self.failure[i] == 0)
+        end = (float(self.next_x[i]), float(self.next_z[i]), float(self.next_xdot[i]), float(self.end_zdot[i]))
+        return StepResult(ok=ok, failure=FailureMode.from_code(int(self.failure[i])),
+                          touchdown_x=float(self.touchdown_x[i]),
+                          next_apex=ApexState(*end[:3]) if ok else None,
+                          time=float(self.time[i]), end_state=end, work=int(self.work[i]))
+
+
+def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = None,
+               stance_steps: int = fs.STANCE_STEPS, parallel: bool = False) -> BatchStepResult:
+    """Fast backend, batched: all ``leg_angles`` from one apex, or, if ``apex`` is an (N, 3) array, one
+    leg angle per apex row. This is the planners' inner loop."""
+    params = params or SlipParams()
+    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
+    if not np.all(np.isfinite(angles)) or np.any(np.abs(angles) >= math.pi / 2):
+        bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))][0]
+        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {bad!r}")
+    apexes = np.asarray(apex, dtype=np.float64)
+    if apexes.ndim == 1:
+        _check_inputs(apexes, terrain, params)
+        apexes = np.broadcast_to(apexes, (angles.size, 3))
+    elif apexes.shape != (angles.size, 3):
+        raise ValueError(f"apex must be one (x, z, xdot) or an array of shape ({angles.size}, 3), "
+                         f"got shape {apexes.shape}")
+    elif not np.all(np.isfinite(apexes)):
+        raise ValueError("apex array contains non-finite values")
+    if int(stance_steps) < 4:
+        raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
+    kernel = fs.step_many_parallel if parallel else fs.step_many
+    out = kernel(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
+                 np.ascontiguousarray(apexes[:, 2]), angles, params.as_array(), terrain.heights, terrain.x0,
+                 terrain.cell, terrain.ditch_height, int(stance_steps))
+    return BatchStepResult(failure=out[:, fs.OUT_CODE].astype(np.int64), touchdown_x=out[:, fs.OUT_TD_X],
+                           next_x=out[:, fs.OUT_X], next_z=out[:, fs.OUT_Z], next_xdot=out[:, fs.OUT_XDOT],
+                           end_zdot=out[:, fs.OUT_ZDOT], time=out[:, fs.OUT_TIME],
+                           work=out[:, fs.OUT_WORK].astype(np.int64))

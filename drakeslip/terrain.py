@@ -1,0 +1,131 @@
+"""Piecewise-constant 1-D terrain and the paper's two random terrain families."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
+WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
+WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells)
+
+
+class Terrain:
+    """Height profile made of cells: cell i covers ``[x0 + i*cell, x0 + (i+1)*cell)`` at ``heights[i]``.
+
+    Beyond both ends the first/last height extends flat forever. Cells at or below ``ditch_height`` are
+    ditches: a foot that reaches a ditch floor is a ``FOOT_COLLISION`` (the hopper cannot stand in a hole).
+    """
+
+    def __init__(self, heights, cell: float = 0.1, x0: float = -3.0, ditch_height: float = DITCH_HEIGHT):
+        h = np.asarray(heights, dtype=np.float64)
+        if h.ndim != 1 or h.size == 0:
+            raise ValueError(f"Terrain heights must be a non-empty 1-D array, got shape {h.shape}")
+        bad = np.flatnonzero(~np.isfinite(h))
+        if bad.size:
+            raise ValueError(f"Terrain heights must be finite: heights[{bad[0]}] = {h[bad[0]]}")
+        if not (isinstance(cell, (int, float)) and math.isfinite(cell) and cell > 0):
+            raise ValueError(f"Terrain cell size must be positive and finite, got {cell!r}")
+        if not (isinstance(x0, (int, float)) and math.isfinite(x0)):
+            raise ValueError(f"Terrain x0 must be finite, got {x0!r}")
+        self.heights = h
+        self.heights.setflags(write=False)
+        self.cell = float(cell)
+        self.x0 = float(x0)
+        self.ditch_height = float(ditch_height)
+
+    @classmethod
+    def flat(cls, height: float = 0.0, cell: float = 0.1, x0: float = -3.0, length: float = 30.0) -> "Terrain":
+        return cls(np.full(int(round(length / cell)), float(height)), cell, x0)
+
+    @property
+    def x_end(self) -> float:
+        return self.x0 + self.cell * self.heights.size
+
+    def index(self, x):
+        """Cell index of x (clamped to the ends, where the terrain extends flat)."""
+        i = np.floor((np.asarray(x, dtype=np.float64) - self.x0) / self.cell).astype(np.int64)
+        return np.clip(i, 0, self.heights.size - 1)
+
+    def height_at(self, x):
+        h = self.heights[self.index(x)]
+        return float(h) if np.ndim(h) == 0 else h
+
+    def is_ditch_at(self, x) -> bool:
+        return bool(self.height_at(x) <= self.ditch_height)
+
+    def window(self, x_body: float, ahead: float = WINDOW_AHEAD, behind: float = WINDOW_BEHIND):
+        """The perception window around the body: ``(heights, x_start)`` with ``(ahead+behind)/cell`` cells
+        aligned to the terrain grid, cell j covering ``[x_start + j*cell, x_start + (j+1)*cell)``."""
+        n = int(round((ahead + behind) / self.cell))
+        first = int(math.floor((x_body - behind - self.x0) / self.cell))
+        idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
+        return self.heights[idx].copy(), self.x0 + first * self.cell
+
+    def to_dict(self) -> dict:
+        return {"x0": self.x0, "cell": self.cell, "heights": [float(v) for v in self.heights]}
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "Terrain":
+        for key in ("x0", "cell", "heights"):
+            if key not in d:
+                raise ValueError(f"terrain is missing the field {key!r}")
+        return cls(d["heights"], cell=d["cell"], x0=d["x0"])
+
+    def __repr__(self):
+        return f"Terrain(n={self.heights.size}, cell={self.cell}, x0={self.x0})"
+
+
+def _cells(length: float, cell: float) -> int:
+    return max(1, int(round(length / cell)))
+
+
+def ditch_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
+                ditch_width=(0.2, 0.6), island_length=(0.4, 1.5)) -> Terrain:
+    """Ground at 0 with ditches (holes at DITCH_HEIGHT) of width 0.2-0.6 m between islands of 0.4-1.5 m;
+    flat for x < ``flat_until``. Widths are whole cells."""
+    rng = np.random.default_rng(seed)
+    n = _cells(x_end - x0, cell)
+    heights = np.zeros(n)
+    i = _cells(flat_until - x0, cell)
+    while i < n:
+        w = _cells(rng.uniform(*ditch_width), cell)
+        heights[i:i + w] = DITCH_HEIGHT
+        i += w + _cells(rng.uniform(*island_length), cell)
+    return Terrain(heights, cell, x0)
+
+
+def step_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
+               change=(0.05, 0.25), level_range=(-0.3, 0.5), segment_length=(0.6, 2.0)) -> Terrain:
+    """Piecewise-constant levels, each change +-0.05-0.25 m, kept in -0.3...0.5 m, segments 0.6-2.0 m long;
+    flat at 0 for x < ``flat_until``."""
+    rng = np.random.default_rng(seed)
+    n = _cells(x_end - x0, cell)
+    heights = np.zeros(n)
+    i = _cells(flat_until - x0, cell)
+    level = 0.0
+    while i < n:
+        step = rng.uniform(*change) * rng.choice((-1.0, 1.0))
+        if not level_range[0] <= level + step <= level_range[1]:
+            step = -step  # reflect at the band's edge so every change keeps its size
+        level = round(level + step, 4)
+        seg = _cells(rng.uniform(*segment_length), cell)
+        heights[i:i + seg] = level
+        i += seg
+    return Terrain(heights, cell, x0)
+
+
+def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0) -> Terrain:
+    """Steps and ditches on one terrain: a step world with some islands cut by ditches."""
+    rng = np.random.default_rng(seed)
+    base = step_world(seed, x0, x_end, cell, flat_until).heights.copy()
+    i = _cells(flat_until - x0, cell) + _cells(rng.uniform(0.4, 1.5), cell)
+    while i < base.size:
+        w = _cells(rng.uniform(0.2, 0.6), cell)
+        base[i:i + w] = DITCH_HEIGHT
+        i += w + _cells(rng.uniform(0.8, 2.5), cell)
+    return Terrain(base, cell, x0)
+
+
+TERRAIN_FAMILIES = {"ditch": ditch_world, "step": step_world, "mixed": mixed_world}
