@@ -50,7 +50,8 @@ class SlipHopper(LeafSystem):
       continuous (SlipState): x, z, xdot, zdot — the body, world frame.
       discrete (HybridState): mode (Mode), leg_deployed (1 after the apex placement, 0 after liftoff),
         leg_angle (held from apex to touchdown), foot_x, foot_z (pinned in stance), failure (FailureMode code,
-        0 = none), hops (apexes reached after the start).
+        0 = none), hops (liftoffs so far: at an apex, the index of the hop its command is for; counted at
+        liftoff because the apex command is read from the pre-event context).
       abstract: the event log, a tuple of HybridEvent.
     Input port
       leg_angle (1): the commanded leg angle [rad from vertical, + = foot ahead], sampled at each apex
@@ -184,7 +185,6 @@ class SlipHopper(LeafSystem):
         (x + L0 sin th, z - L0 cos th); a foot that would not be above the terrain is a TRIP."""
         s, h = self.body(context), self.hybrid(context)
         if record:
-            h.hops += 1
             self._record(context, state, "apex", s, None, h.leg_angle)
         command = float(self.get_input_port(0).Eval(context)[0]) if self.get_input_port(0).HasValue(context) \
             else math.nan
@@ -226,6 +226,7 @@ class SlipHopper(LeafSystem):
             return self._fail(context, state, h, FailureMode.STALL)
         h.mode = Mode.FLIGHT
         h.leg_deployed = 0
+        h.hops += 1
         state.get_mutable_discrete_state().get_mutable_vector().SetFromVector(h[:])
         return EventStatus.Succeeded()
 

@@ -87,7 +87,7 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
     angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
     if not np.all(np.isfinite(angles)) or np.any(np.abs(angles) >= math.pi / 2):
         bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))][0]
-        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {bad!r}")
+        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad)!r}")
     apexes = np.asarray(apex, dtype=np.float64)
     if apexes.ndim == 1:
         _check_inputs(apexes, terrain, params)

@@ -59,7 +59,8 @@ class Terrain:
         """The perception window around the body: ``(heights, x_start)`` with ``(ahead+behind)/cell`` cells
         aligned to the terrain grid, cell j covering ``[x_start + j*cell, x_start + (j+1)*cell)``."""
         n = int(round((ahead + behind) / self.cell))
-        first = int(math.floor((x_body - behind - self.x0) / self.cell))
+        # Anchored on the body's cell so the body always sits in cell round(behind / cell) of the window.
+        first = int(math.floor((x_body - self.x0) / self.cell)) - int(round(behind / self.cell))
         idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
         return self.heights[idx].copy(), self.x0 + first * self.cell
 

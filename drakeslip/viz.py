@@ -1,0 +1,167 @@
+"""Figures and animations of simulated hops (kept apart from the dynamics; matplotlib only, no display).
+
+Figures are built on Agg canvases directly, never through pyplot, so importing this module neither needs a
+display nor changes the caller's matplotlib backend.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from matplotlib.animation import PillowWriter
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+from .hopper import HybridState, Mode
+from .simulate import SimulationResult
+from .terrain import Terrain
+
+GROUND_COLOR = "#8c6d46"
+BODY_COLOR = "#1f4e99"
+LEG_COLOR = "#333333"
+RETRACTED_FRACTION = 0.35  # a retracted leg is drawn this fraction of its rest length, straight down
+_MODE = HybridState._fields.index("mode")
+_DEPLOYED = HybridState._fields.index("leg_deployed")
+_ANGLE = HybridState._fields.index("leg_angle")
+_FOOT_X, _FOOT_Z = HybridState._fields.index("foot_x"), HybridState._fields.index("foot_z")
+
+
+def new_axes(figsize=(12, 4.5)):
+    """A fresh Axes on its own Agg figure (save it with ``ax.figure.savefig``)."""
+    fig = Figure(figsize=figsize, layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig.add_subplot()
+
+
+def _floor_level(terrain: Terrain, xlim) -> float:
+    """Bottom of the drawn ground: a little below the lowest solid (non-ditch) cell in view."""
+    heights = terrain.height_at(np.arange(xlim[0], xlim[1] + terrain.cell, terrain.cell / 2))
+    solid = heights[heights > terrain.ditch_height]
+    return (float(solid.min()) if solid.size else 0.0) - 0.3
+
+
+def plot_terrain(ax, terrain: Terrain, xlim) -> None:
+    """Solid ground as filled columns down to the bottom of the view; ditches are left open (holes) with
+    their walls drawn, going on below the view."""
+    x_lo, x_hi = xlim
+    floor = _floor_level(terrain, xlim)
+    first, last = terrain.index(x_lo), terrain.index(x_hi)
+    edges = terrain.x0 + terrain.cell * np.arange(first, last + 2)
+    edges[0], edges[-1] = min(edges[0], x_lo), max(edges[-1], x_hi)  # the flat extension beyond the ends
+    heights = terrain.heights[first:last + 1]
+    ditch = heights <= terrain.ditch_height
+    surface = np.where(ditch, floor - 1.0, heights)
+    ax.fill_between(np.repeat(edges, 2)[1:-1], np.repeat(surface, 2), floor - 1.0, color=GROUND_COLOR, lw=0,
+                    zorder=1)
+    ax.stairs(surface, edges, baseline=None, color="black", lw=1.0, zorder=2)
+    ax.set_xlim(x_lo, x_hi)
+    ax.set_ylim(bottom=floor)
+
+
+def _leg_end(body, hybrid_row, params, failure_foot=None):
+    """Where to draw the foot: pinned in stance, at rest length along the leg angle when deployed in flight,
+    short and straight down when retracted."""
+    x, z = body
+    mode = int(hybrid_row[_MODE])
+    if mode == Mode.STANCE:
+        return hybrid_row[_FOOT_X], hybrid_row[_FOOT_Z]
+    if mode == Mode.FAILED and failure_foot is not None:
+        return failure_foot
+    if hybrid_row[_DEPLOYED]:
+        angle = hybrid_row[_ANGLE]
+        return x + params.leg_length * math.sin(angle), z - params.leg_length * math.cos(angle)
+    return x, z - RETRACTED_FRACTION * params.leg_length
+
+
+def _view(result: SimulationResult, margin: float = 0.6):
+    xs = result.states[:, 0]
+    return float(xs.min()) - margin, float(xs.max()) + margin
+
+
+def _heights_in_view(result: SimulationResult):
+    """(bottom, top) of the view: below the lowest solid ground, above the highest apex."""
+    return _floor_level(result.terrain, _view(result)), float(result.states[:, 1].max()) + 0.25
+
+
+def _figsize(x_span: float, z_span: float, width: float, extra_height: float):
+    """A figure ``width`` inches wide whose height fits an equal-aspect view of x_span by z_span metres."""
+    return width, min(width * z_span / x_span, 2 * width) + extra_height
+
+
+def plot_trajectory(result: SimulationResult, ax=None):
+    """Terrain, body path, the leg at every touchdown and liftoff, footholds, apexes and the failure (if any).
+    Returns the Axes."""
+    own_figure = ax is None
+    xlim = _view(result)
+    z_lo, z_hi = _heights_in_view(result)
+    ax = new_axes(_figsize(xlim[1] - xlim[0], z_hi - z_lo, 12.0, 1.4)) if own_figure else ax
+    plot_terrain(ax, result.terrain, xlim)
+    ax.plot(result.states[:, 0], result.states[:, 1], color=BODY_COLOR, lw=1.5, label="body path", zorder=4)
+    for event in result.events:
+        if event.kind in ("touchdown", "liftoff") and event.foot is not None:
+            style = "-" if event.kind == "touchdown" else "--"
+            ax.plot([event.state[0], event.foot[0]], [event.state[1], event.foot[1]], style, color=LEG_COLOR,
+                    lw=1.2, zorder=3)
+    footholds = [e.foot for e in result.events if e.kind == "touchdown"]
+    if footholds:
+        fx, fz = np.array(footholds).T
+        ax.plot(fx, fz, "^", color="#d98c00", ms=8, mec="black", label="footholds", zorder=5)
+    apexes = np.array([result.states[0, :2]] + [a[:2] for a in result.apexes])
+    ax.plot(apexes[:, 0], apexes[:, 1], "o", color="white", mec=BODY_COLOR, ms=6, label="apexes", zorder=5)
+    if result.failure_event is not None:
+        e = result.failure_event
+        foot = _leg_end(e.state[:2], result.hybrid[-1], result.params, e.foot)
+        ax.plot([e.state[0], foot[0]], [e.state[1], foot[1]], ":", color="red", lw=1.5, zorder=3)
+        ax.plot(e.state[0], e.state[1], "X", color="red", ms=12, mec="black", zorder=6,
+                label=f"failure: {result.failure.name}")
+    ax.plot([], [], "-", color=LEG_COLOR, label="leg at touchdown")
+    ax.plot([], [], "--", color=LEG_COLOR, label="leg at liftoff")
+    ax.set_aspect("equal")
+    ax.set_ylim(z_lo, z_hi)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("z [m]")
+    outcome = f"failed ({result.failure.name})" if result.failure else "ok"
+    ax.set_title(f"SLIP hopper: {len(result.apexes)} apexes, {len(footholds)} footholds, {outcome}")
+    if own_figure:  # below the axes, where constrained layout keeps it clear of the labels
+        ax.figure.legend(loc="outside lower center", fontsize=8, ncols=7, frameon=False)
+    else:
+        ax.legend(loc="best", fontsize=8)
+    return ax
+
+
+def animate(result: SimulationResult, path, fps: int = 30, view_width: float = 4.0, width: float = 8.0,
+            dpi: int = 80) -> int:
+    """Write a GIF of the body and leg in real time at ``fps`` frames per second, the view (``view_width``
+    metres wide) following the body. Returns the number of frames."""
+    if result.times.size == 0:
+        raise ValueError("the result has no logged trajectory (simulate with log=True)")
+    full = _view(result)
+    view_width = min(view_width, full[1] - full[0])
+    z_lo, z_hi = _heights_in_view(result)
+    ax = new_axes(_figsize(view_width, z_hi - z_lo, width, 0.6))
+    fig = ax.figure
+    plot_terrain(ax, result.terrain, full)
+    ax.set_aspect("equal")
+    ax.set_ylim(z_lo, z_hi)
+    trail, = ax.plot([], [], color=BODY_COLOR, lw=1, alpha=0.5, zorder=3)
+    leg, = ax.plot([], [], color=LEG_COLOR, lw=2.5, solid_capstyle="round", zorder=4)
+    body, = ax.plot([], [], "o", color=BODY_COLOR, ms=12, mec="black", zorder=5)
+    label = ax.text(0.01, 0.95, "", transform=ax.transAxes, va="top", fontsize=9)
+    failure_foot = result.failure_event.foot if result.failure_event is not None else None
+
+    times = result.times
+    frame_times = np.append(np.arange(times[0], times[-1], 1.0 / fps), times[-1])
+    writer = PillowWriter(fps=fps)
+    with writer.saving(fig, str(path), dpi):
+        for t in frame_times:
+            i = min(int(np.searchsorted(times, t, side="right")) - 1, times.size - 1)
+            x, z = (np.interp(t, times, result.states[:, k]) for k in (0, 1))
+            foot = _leg_end((x, z), result.hybrid[i], result.params, failure_foot)
+            trail.set_data(result.states[:i + 1, 0], result.states[:i + 1, 1])
+            leg.set_data([x, foot[0]], [z, foot[1]])
+            body.set_data([x], [z])
+            left = min(max(x - view_width / 2, full[0]), full[1] - view_width)
+            ax.set_xlim(left, left + view_width)
+            label.set_text(f"t = {t:5.2f} s   {Mode(int(result.hybrid[i, _MODE])).name.lower()}")
+            writer.grab_frame()
+    return frame_times.size

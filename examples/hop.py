@@ -1,0 +1,124 @@
+"""Simulate a SLIP hopper over generated terrain in Drake and draw what happened.
+
+At every apex a small lookahead picks the leg angle: a grid of angles is stepped with the fast batched step
+map, each success is stepped once more over the same grid, and the angle that survives two hops (with
+neighbours that survive too) and keeps the speed closest to the nominal speed is commanded. The hops
+themselves run in Drake's simulator.
+
+    python3 examples/hop.py --terrain step --seed 3 --out out/hop.png --anim out/hop.gif
+"""
+from __future__ import annotations
+
+import argparse
+import math
+from pathlib import Path
+
+import numpy as np
+
+import drakeslip as ds
+from drakeslip.simulate import simulate
+from drakeslip.viz import animate, plot_trajectory
+
+N_ANGLES = 41  # lookahead grid over +-atan(mu)
+SURVIVAL_WEIGHT = 0.5  # preference for angles whose next apex leaves many safe choices
+
+
+class TwoHopLookahead:
+    """Leg-angle policy ``(apex, hop) -> angle | None`` that looks two hops ahead with the fast step map."""
+
+    def __init__(self, terrain: ds.Terrain, params: ds.SlipParams, nominal_speed: float):
+        self.terrain, self.params, self.nominal_speed = terrain, params, nominal_speed
+        self.angles = np.linspace(-params.max_leg_angle, params.max_leg_angle, N_ANGLES)
+        self.warnings: dict[int, str] = {}
+
+    def __call__(self, apex: ds.ApexState, hop: int) -> float | None:
+        angles, v = self.angles, self.nominal_speed
+        first = ds.step_batch(apex, angles, self.terrain, self.params)
+        ok = np.flatnonzero(first.ok)
+        if ok.size == 0:
+            self.warnings[hop] = "no leg angle survives the next hop"
+            return None
+        nxt = np.column_stack([first.next_x[ok], first.next_z[ok], first.next_xdot[ok]])
+        second = ds.step_batch(np.repeat(nxt, angles.size, axis=0), np.tile(angles, ok.size), self.terrain,
+                               self.params)
+        ok2 = second.ok.reshape(ok.size, angles.size)
+        speed2 = np.where(ok2, second.next_xdot.reshape(ok.size, angles.size), np.inf)
+        survival = np.zeros(angles.size)
+        survival[ok] = ok2.mean(axis=1)
+        safe = survival > 0
+        # Prefer angles whose grid neighbours are safe too: the choice then has margin on every side.
+        robust = safe & np.r_[False, safe[:-1]] & np.r_[safe[1:], False]
+        candidates = np.flatnonzero(robust if robust.any() else safe)
+        if candidates.size == 0:
+            self.warnings[hop] = "no leg angle survives two hops; taking the best one-hop survivor"
+            return float(angles[ok[np.argmin(np.abs(first.next_xdot[ok] - v))]])
+        row = {j: i for i, j in enumerate(ok)}
+        cost = [abs(first.next_xdot[j] - v) + np.min(np.abs(speed2[row[j]] - v)) - SURVIVAL_WEIGHT * survival[j]
+                for j in candidates]
+        return float(angles[candidates[int(np.argmin(cost))]])
+
+
+def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
+    apexes = [start] + result.apexes
+    touchdowns = [e for e in result.events if e.kind == "touchdown"]
+    terrain = result.terrain
+    for hop, angle in enumerate(result.leg_angles):
+        a = apexes[hop]
+        line = (f"hop {hop + 1:2d}: apex x={a.x:6.3f} z={a.z:6.3f} (ground {terrain.height_at(a.x):+.3f}) "
+                f"xdot={a.xdot:5.2f}  angle {math.degrees(angle):+6.1f} deg")
+        if hop < len(touchdowns):
+            foot = touchdowns[hop].foot
+            line += f"  foothold x={foot[0]:6.3f} on {terrain.height_at(foot[0]):+.3f}"
+        print(line)
+        if hop in policy.warnings:
+            print(f"        note: {policy.warnings[hop]}")
+    if result.failure is not None:
+        e = result.failure_event
+        print(f"outcome: FAILED with {result.failure.name} at t={e.time:.3f} s, body at x={e.state[0]:.3f} "
+              f"z={e.state[1]:.3f}")
+    else:
+        travelled = f"{len(result.apexes)} hops, {apexes[-1].x - start.x:.2f} m travelled"
+        halted = policy.warnings.get(len(result.leg_angles))
+        print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--terrain", choices=["flat", "ditch", "step", "mixed"], default="step",
+                        help="terrain family (default step)")
+    parser.add_argument("--seed", type=int, default=0, help="terrain seed (default 0)")
+    parser.add_argument("--hops", type=int, default=10, help="number of hops to simulate (default 10)")
+    parser.add_argument("--out", type=Path, required=True, help="figure to write (PNG)")
+    parser.add_argument("--anim", type=Path, help="also write an animation (GIF)")
+    parser.add_argument("--x0", type=float, default=0.0, help="start apex x [m] (default 0)")
+    parser.add_argument("--z", type=float, default=0.75, help="start apex height, absolute [m] (default 0.75)")
+    parser.add_argument("--xdot", type=float, default=1.5,
+                        help="start apex speed [m/s], also the lookahead's nominal speed (default 1.5)")
+    args = parser.parse_args()
+    if args.hops < 1:
+        parser.error("--hops must be at least 1")
+
+    params = ds.SlipParams()
+    terrain = ds.Terrain.flat() if args.terrain == "flat" else ds.TERRAIN_FAMILIES[args.terrain](args.seed)
+    start = ds.ApexState(args.x0, args.z, args.xdot)
+    policy = TwoHopLookahead(terrain, params, nominal_speed=args.xdot)
+    print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
+    try:
+        result = simulate(start, policy, terrain, params, max_hops=args.hops)
+    except ValueError as error:  # e.g. a start apex that is not above the terrain
+        parser.error(str(error))
+    report(result, policy, start)
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    ax = plot_trajectory(result)
+    ax.figure.savefig(args.out, dpi=150)
+    print(f"figure: {args.out}")
+    if args.anim:
+        args.anim.parent.mkdir(parents=True, exist_ok=True)
+        frames = animate(result, args.anim)
+        print(f"animation: {args.anim} ({frames} frames)")
+    return 1 if result.failure is not None else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,63 @@
+"""Step-map benchmarks, side by side in one group: fast single step, fast batch of 30 angles, Drake step.
+
+    python3 -m pytest --benchmark-only -q tests/test_bench_stepmap.py
+"""
+import time
+
+import numpy as np
+import pytest
+
+import drakeslip as ds
+
+APEX = (0.0, 0.6, 2.0)
+ANGLE = 0.25
+N_ANGLES = 30
+PARAMS = ds.SlipParams()
+TERRAIN = ds.step_world(3)
+ANGLES = np.linspace(-PARAMS.max_leg_angle, PARAMS.max_leg_angle, N_ANGLES)
+SPEEDUP_TARGET = 500
+
+
+def fast_batch():
+    return ds.step_batch(APEX, ANGLES, TERRAIN, PARAMS)
+
+
+def seconds_per_call(fn, repeats):
+    best = np.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+@pytest.fixture(scope="module", autouse=True)
+def compiled():
+    fast_batch()  # load the compiled kernel before any timing
+
+
+@pytest.mark.benchmark(group="stepmap")
+def test_fast_single_step(benchmark):
+    result = benchmark(ds.step, APEX, ANGLE, TERRAIN, PARAMS)
+    assert result.ok
+
+
+@pytest.mark.benchmark(group="stepmap")
+def test_fast_batch_of_30_angles(benchmark):
+    batch = benchmark(fast_batch)
+    assert batch.ok.sum() >= 5
+    if benchmark.stats:  # absent under --benchmark-disable
+        benchmark.extra_info["us_per_step"] = benchmark.stats.stats.median / N_ANGLES * 1e6
+
+
+@pytest.mark.benchmark(group="stepmap")
+def test_drake_step(benchmark):
+    result = benchmark.pedantic(ds.step, args=(APEX, ANGLE, TERRAIN, PARAMS), kwargs={"backend": "drake"},
+                                rounds=3, iterations=1)
+    assert result.ok
+    # Side by side in this process: Drake against the fast backend's per-step time in a batch.
+    drake = benchmark.stats.stats.min if benchmark.stats else seconds_per_call(
+        lambda: ds.step(APEX, ANGLE, TERRAIN, PARAMS, backend="drake"), 2)
+    fast = seconds_per_call(fast_batch, 200) / N_ANGLES
+    benchmark.extra_info["fast_speedup"] = drake / fast
+    assert drake / fast >= SPEEDUP_TARGET, f"fast backend only {drake / fast:.0f}x faster than Drake"
