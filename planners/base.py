@@ -1,0 +1,152 @@
+"""What every planner shares: the Plan it returns, its budget, and input checks (one OMPL-style interface)."""
+from __future__ import annotations
+
+import math
+import time
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.terrain import WINDOW_AHEAD
+
+# The plan aims this far short of the window's end when the goal lies beyond the window: the last footholds
+# must still be inside what the robot can see, and the hop after them needs ground under it too.
+TARGET_MARGIN = 1.0
+
+
+@dataclass
+class FootstepSequence:
+    """Footholds x_i [m], the leg angles that reach them, and the predicted apex (x, z, xdot) after each."""
+
+    footholds: np.ndarray
+    leg_angles: np.ndarray
+    apexes: np.ndarray
+
+    def __len__(self):
+        return self.footholds.size
+
+    def to_dict(self) -> dict:
+        return {"footholds": self.footholds.tolist(), "leg_angles": self.leg_angles.tolist(),
+                "apexes": self.apexes.tolist()}
+
+
+@dataclass
+class Plan:
+    """The result of ``planner.plan``: ``success`` with the best sequence in ``footholds``/``leg_angles``/
+    ``apexes`` (and up to d ``alternatives`` for the search planners), or ``success=False`` and a
+    ``message`` saying why no plan was found. ``target_x`` is what the plan aimed to pass: the goal, or the
+    edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations."""
+
+    planner: str
+    success: bool
+    target_x: float
+    ode_calls: int = 0
+    time_s: float = 0.0
+    nodes_expanded: int = 0
+    message: str = ""
+    sequences: list = field(default_factory=list)
+
+    @property
+    def best(self) -> FootstepSequence | None:
+        return self.sequences[0] if self.sequences else None
+
+    @property
+    def footholds(self) -> np.ndarray:
+        return self.best.footholds if self.sequences else np.zeros(0)
+
+    @property
+    def leg_angles(self) -> np.ndarray:
+        return self.best.leg_angles if self.sequences else np.zeros(0)
+
+    @property
+    def apexes(self) -> np.ndarray:
+        return self.best.apexes if self.sequences else np.zeros((0, 3))
+
+    @property
+    def alternatives(self) -> list:
+        return self.sequences[1:]
+
+    def summary(self) -> dict:
+        """The per-planning-call record the evaluation writes."""
+        return {"success": self.success, "message": self.message, "ode_calls": self.ode_calls,
+                "t_plan_s": self.time_s, "nodes_expanded": self.nodes_expanded, "target_x": self.target_x,
+                "footholds": self.footholds.tolist()}
+
+
+@dataclass(frozen=True)
+class Budget:
+    """A planner stops after ``max_nodes`` node expansions (per search attempt) or ``max_time_s`` seconds
+    (for the whole call), whichever comes first."""
+
+    max_nodes: int = 3000
+    max_time_s: float = 2.0
+
+    def __post_init__(self):
+        if not (isinstance(self.max_nodes, int) and self.max_nodes >= 1):
+            raise ValueError(f"max_nodes must be a positive integer, got {self.max_nodes!r}")
+        if not (isinstance(self.max_time_s, (int, float)) and math.isfinite(self.max_time_s) and self.max_time_s > 0):
+            raise ValueError(f"max_time_s must be a positive number of seconds, got {self.max_time_s!r}")
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One planning query after its inputs were checked: the window the footholds must stay in, the target."""
+
+    apex: ApexState
+    terrain: Terrain
+    goal_x: float
+    params: SlipParams
+    window_end: float   # footholds must lie before this x (the perception window's far edge)
+    target_x: float     # a sequence is complete when a foothold passes this x
+    deadline: float     # time.perf_counter() value at which the planner must stop
+
+
+class Planner(ABC):
+    """Base class: ``plan(apex, terrain, goal_x, params) -> Plan``. Subclasses implement ``_plan``."""
+
+    name = "planner"
+
+    def __init__(self, max_nodes: int = Budget.max_nodes, max_time_s: float = Budget.max_time_s,
+                 horizon: float = WINDOW_AHEAD):
+        self.budget = Budget(max_nodes, max_time_s)
+        if not (math.isfinite(horizon) and horizon > TARGET_MARGIN):
+            raise ValueError(f"horizon must be a finite distance above {TARGET_MARGIN} m, got {horizon!r}")
+        self.horizon = float(horizon)
+
+    def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None) -> Plan:
+        t0 = time.perf_counter()
+        problem = self.problem(apex, terrain, goal_x, params, t0)
+        if problem.apex.x >= problem.goal_x:
+            return Plan(self.name, True, problem.target_x, message="already past the goal",
+                        sequences=[FootstepSequence(np.zeros(0), np.zeros(0), np.zeros((0, 3)))])
+        plan = self._plan(problem)
+        plan.time_s = time.perf_counter() - t0
+        return plan
+
+    def problem(self, apex, terrain, goal_x, params, t0: float) -> Problem:
+        if not isinstance(terrain, Terrain):
+            raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
+        params = SlipParams() if params is None else params
+        if not isinstance(params, SlipParams):
+            raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
+        try:
+            apex = ApexState(*map(float, apex)).validate()
+        except TypeError as exc:
+            raise ValueError(f"apex must be (x, z, xdot), got {apex!r}") from exc
+        ground = terrain.height_at(apex.x)
+        if apex.z <= ground:
+            raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+        if apex.xdot <= 0:
+            raise ValueError(f"apex xdot={apex.xdot} must be positive: the planners hop forward")
+        goal_x = float(goal_x)
+        if not math.isfinite(goal_x):
+            raise ValueError(f"goal_x must be finite, got {goal_x!r}")
+        window_end = min(apex.x + self.horizon, terrain.x_end)
+        target_x = min(goal_x, window_end - TARGET_MARGIN)
+        return Problem(apex, terrain, goal_x, params, window_end, target_x, t0 + self.budget.max_time_s)
+
+    @abstractmethod
+    def _plan(self, problem: Problem) -> Plan:
+        ...

@@ -1,0 +1,164 @@
+"""Training data for the footstep model: Angle-space search trees turned into footstep sequences (Table I).
+
+Each instance is one terrain and one initial apex. Its Angle-space search tree is grown to ``goal_sequences``
+goals, and every root-to-leaf path with at least ``min_steps`` footholds that covers at least
+``min_progress`` of the distance to the search target becomes a sequence: the encoded perception window at
+the initial apex and the window cells of its footholds. Instances are grouped into shards; each shard is
+written atomically as one .npz, so an interrupted run resumes by skipping the shards already on disk.
+"""
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
+
+from .angle_space import AngleSpacePlanner
+from .lstm_inputs import encode_window
+
+
+@dataclass(frozen=True)
+class DatasetConfig:
+    """The paper's Table I by default."""
+
+    n_terrains: int = 360               # half ditch world, half step world
+    apexes_per_terrain: int = 8
+    min_steps: int = 8
+    goal_sequences: int = 8             # d: goals each search collects
+    branching: int = 15
+    friction: float = 0.6               # lower than the test suites' 0.8, for robustness
+    weights: tuple = (1.0, 1.0, 2.0)
+    goal_x: float = 10.0
+    min_progress: float = 0.6           # fraction of the distance from the apex to the search target
+    max_paths_per_instance: int = 20    # seeded subsample of an instance's paths (~50k sequences in all)
+    max_steps: int = 20                 # sequences are cut to their first max_steps footholds
+    max_nodes: int = 2000
+    max_time_s: float = 20.0
+    families: tuple = ("ditch", "step")
+    instances_per_shard: int = 16
+    seed: int = 0
+
+    def __post_init__(self):
+        unknown = [f for f in self.families if f not in TERRAIN_FAMILIES]
+        if unknown:
+            raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
+        for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
+                     "instances_per_shard", "max_paths_per_instance", "max_steps"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"DatasetConfig.{name} must be at least 1, got {getattr(self, name)}")
+
+    @property
+    def n_instances(self) -> int:
+        return self.n_terrains * self.apexes_per_terrain
+
+    @property
+    def n_shards(self) -> int:
+        return -(-self.n_instances // self.instances_per_shard)
+
+
+def instance(cfg: DatasetConfig, i: int):
+    """Terrain and initial apex of instance i: terrain i // apexes_per_terrain, families alternating."""
+    t = i // cfg.apexes_per_terrain
+    family = cfg.families[t % len(cfg.families)]
+    terrain = TERRAIN_FAMILIES[family](seed=cfg.seed * 1_000_003 + t)
+    rng = np.random.default_rng([cfg.seed, i])
+    for _ in range(100):  # start over solid ground: on the flat run-in or anywhere along the course
+        x = rng.uniform(0.0, 0.5) if rng.random() < 0.25 else rng.uniform(0.0, cfg.goal_x - 2.0)
+        if not terrain.is_ditch_at(x):
+            break
+    apex = ApexState(x, terrain.height_at(x) + rng.uniform(0.55, 0.85), rng.uniform(0.4, 2.6))
+    return family, terrain, apex
+
+
+def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
+    """All qualifying sequences of instance i as arrays (terrain, apex, s0, steps), plus search statistics."""
+    family, terrain, apex = instance(cfg, i)
+    planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
+                                weights=cfg.weights, seed=cfg.seed * 7919 + i, max_nodes=cfg.max_nodes,
+                                max_time_s=cfg.max_time_s)
+    params = SlipParams(friction=cfg.friction)
+    result = planner.search(apex, terrain, cfg.goal_x, params)
+    enc = encode_window(terrain, apex)
+    target = min(cfg.goal_x, apex.x + planner.horizon - 1.0)
+    need = apex.x + cfg.min_progress * (target - apex.x)
+    n_cells = enc.terrain.size
+    steps = []
+    for seq in result.tree.paths():
+        if len(seq) < cfg.min_steps or seq.footholds[-1] < need:
+            continue
+        cells = enc.cell_of(seq.footholds[:cfg.max_steps])
+        inside = (cells >= 0) & (cells < n_cells)
+        steps.append(cells[:inside.argmin()] if not inside.all() else cells)  # cut at the window's edge
+    if len(steps) > cfg.max_paths_per_instance:
+        keep = np.random.default_rng([cfg.seed, i, 1]).choice(len(steps), cfg.max_paths_per_instance, replace=False)
+        steps = [steps[k] for k in sorted(keep)]
+    t_max = max((s.size for s in steps), default=0)
+    padded = np.full((len(steps), t_max), -1, dtype=np.int16)
+    for row, s in zip(padded, steps):
+        row[:s.size] = s
+    n = len(steps)
+    return {"terrain": np.repeat(enc.terrain[None], n, axis=0), "apex": np.repeat(enc.apex[None], n, axis=0),
+            "s0": np.full(n, enc.s0, dtype=np.int16), "steps": padded, "family": family,
+            "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+
+
+def shard_path(folder: str, k: int) -> str:
+    return os.path.join(folder, f"shard_{k:05d}.npz")
+
+
+def write_shard(cfg: DatasetConfig, k: int, folder: str) -> dict:
+    """Generate shard k (instances k*S .. k*S+S-1) and write it atomically; returns its statistics."""
+    t0 = time.perf_counter()
+    first = k * cfg.instances_per_shard
+    parts = [instance_sequences(cfg, i) for i in range(first, min(first + cfg.instances_per_shard, cfg.n_instances))]
+    t_max = max([p["steps"].shape[1] for p in parts] + [1])
+    arrays = {
+        "terrain": np.concatenate([p["terrain"] for p in parts]).reshape(-1, 110).astype(np.float32),
+        "apex": np.concatenate([p["apex"] for p in parts]).reshape(-1, 3).astype(np.float32),
+        "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int16),
+        "steps": np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
+                                 for p in parts]).astype(np.int16),
+    }
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".npz.tmp")
+    with os.fdopen(fd, "wb") as f:
+        np.savez_compressed(f, **arrays)
+    os.replace(tmp, shard_path(folder, k))
+    return {"shard": k, "sequences": int(arrays["steps"].shape[0]), "seconds": time.perf_counter() - t0,
+            "ode_calls": int(sum(p["ode_calls"] for p in parts))}
+
+
+def write_manifest(cfg: DatasetConfig, folder: str) -> None:
+    """Record the config; a folder made with another config is refused rather than silently mixed."""
+    path = os.path.join(folder, "config.json")
+    mine = asdict(cfg)
+    mine["families"], mine["weights"] = list(cfg.families), list(cfg.weights)
+    if os.path.exists(path):
+        with open(path) as f:
+            theirs = json.load(f)
+        if theirs != mine:
+            raise ValueError(f"{folder} holds a dataset made with another config ({path}); use a new folder")
+        return
+    os.makedirs(folder, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".json.tmp")
+    with os.fdopen(fd, "w") as f:
+        json.dump(mine, f, indent=1)
+    os.replace(tmp, path)
+
+
+def pending_shards(cfg: DatasetConfig, folder: str) -> list[int]:
+    return [k for k in range(cfg.n_shards) if not os.path.exists(shard_path(folder, k))]
+
+
+def count_sequences(folder: str) -> int:
+    total = 0
+    for name in sorted(os.listdir(folder)):
+        if name.startswith("shard_") and name.endswith(".npz"):
+            with np.load(os.path.join(folder, name)) as shard:
+                total += shard["s0"].shape[0]
+    return total

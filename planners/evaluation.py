@@ -1,0 +1,239 @@
+"""Receding-horizon evaluation (paper, section VII): plan on the perception window with the fast step map,
+execute the first 3 footholds with the controller on the Drake hybrid simulator, replan from the apex
+reached; repeat until the body passes the goal, a failure, no plan, or the hop cap.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import statistics
+from concurrent.futures import ProcessPoolExecutor, as_completed
+from dataclasses import dataclass
+from pathlib import Path
+
+from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
+
+from .registry import make, takes
+from .suite import Case, Suite
+
+EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
+MAX_HOPS = 60           # a case that has not reached the goal after this many hops fails ("hop cap")
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """``backend="drake"`` executes on the Drake hybrid simulator (the protocol); ``"fast"`` executes on the
+    fast step map instead, for quick diagnosis (is a failure the planner's or the model mismatch's?).
+    ``refine`` switches the controller's Newton polish (used by the Step-space planner and the execution)."""
+
+    executed_per_plan: int = EXECUTED_PER_PLAN
+    max_hops: int = MAX_HOPS
+    backend: str = "drake"
+    refine: bool = True   # False: the controller is the MLP alone, as in the paper (an ablation)
+
+    def __post_init__(self):
+        if self.backend not in ("drake", "fast"):
+            raise ValueError(f"backend must be 'drake' or 'fast', got {self.backend!r}")
+
+
+def perceived(terrain: Terrain, x_body: float) -> Terrain:
+    """What the robot sees at x_body: the 8 m ahead / 3 m behind window as its own Terrain."""
+    heights, x_start = terrain.window(x_body)
+    return Terrain(heights, terrain.cell, x_start, terrain.ditch_height)
+
+
+@dataclass
+class _Executed:
+    """What executing some footholds gave: the same fields the evaluation reads from a SimulationResult."""
+
+    footholds: list
+    apexes: list
+    failure: object = None
+    failure_x: float = float("nan")
+
+
+def execute(apex: ApexState, footholds: list, controller: StepLengthController, terrain: Terrain,
+            params: SlipParams, backend: str) -> _Executed:
+    """Hop to each foothold in turn, the controller choosing the leg angle at every apex."""
+    if backend == "drake":
+        from drakeslip.simulate import simulate
+
+        sim = simulate(apex, lambda a, hop: controller.leg_angle(a, footholds[hop], terrain), terrain, params,
+                       max_hops=len(footholds), log=False)
+        return _Executed(sim.footholds, sim.apexes, sim.failure,
+                         sim.failure_event.state[0] if sim.failure is not None else float("nan"))
+    from drakeslip import step
+
+    done = _Executed([], [])
+    for x_l in footholds:
+        r = step(apex, controller.leg_angle(apex, x_l, terrain), terrain, params)
+        if r.touchdown_x == r.touchdown_x:
+            done.footholds.append(r.touchdown_x)
+        if not r.ok:
+            done.failure, done.failure_x = r.failure, r.end_state[0]
+            break
+        apex = r.next_apex
+        done.apexes.append(apex)
+    return done
+
+
+def run_case(planner, controller: StepLengthController, case: Case, goal_x: float, params: SlipParams,
+             config: EvalConfig = EvalConfig()) -> dict:
+    """One case in the receding-horizon loop; returns {"id", "success", "failure", "final_x", "plans"}."""
+    apex, terrain = ApexState(*map(float, case.apex)), case.terrain
+    plans, hops, failure = [], 0, None
+    while True:
+        plan = planner.plan(apex, perceived(terrain, apex.x), goal_x, params)
+        record = plan.summary()
+        record["apex"] = list(apex)
+        plans.append(record)
+        if not plan.success:
+            failure = "NO_PLAN"
+            final_x = apex.x
+            break
+        footholds = plan.footholds[:config.executed_per_plan].tolist()
+        sim = execute(apex, footholds, controller, terrain, params, config.backend)
+        record["executed"] = [float(x) for x in sim.footholds]
+        hops += len(footholds)
+        if sim.failure is not None:
+            failure = sim.failure.name
+            final_x = float(sim.failure_x)
+            break
+        apex = ApexState(*map(float, sim.apexes[-1]))
+        final_x = apex.x
+        if apex.x >= goal_x:
+            break
+        if hops >= config.max_hops:
+            failure = "HOP_CAP"
+            break
+    return {"id": case.id, "success": failure is None, "failure": failure, "final_x": final_x, "plans": plans}
+
+
+def summarize(cases: list) -> dict:
+    """The per-planner JSON block: success rate (fraction), ODE calls and planning time per planning call."""
+    calls = [p for c in cases for p in c["plans"]]
+    times = [p["t_plan_s"] for p in calls]
+    return {"success_rate": sum(c["success"] for c in cases) / len(cases) if cases else 0.0,
+            "ode_calls_mean": statistics.fmean(p["ode_calls"] for p in calls) if calls else 0.0,
+            "t_plan_mean_s": statistics.fmean(times) if times else 0.0,
+            "t_plan_median_s": statistics.median(times) if times else 0.0,
+            "cases": cases}
+
+
+def table(results: dict) -> str:
+    """A text table like the paper's Tables II/III."""
+    rows = [f"Results on {results['suite']}",
+            f"{'Planner':<12} {'Success %':>9} {'ODE calls':>10} {'t_plan mean':>12} {'t_plan median':>14} "
+            f"{'cases':>6}"]
+    for name, r in results["planners"].items():
+        rows.append(f"{name:<12} {100 * r['success_rate']:>9.1f} {r['ode_calls_mean']:>10.0f} "
+                    f"{r['t_plan_mean_s']:>11.2g}s {r['t_plan_median_s']:>13.2g}s {len(r['cases']):>6}")
+    return "\n".join(rows)
+
+
+# ---- parallel driver with a resumable per-case cache ---------------------------------------------------
+
+_WORKER: dict = {}
+
+
+def _init_worker(planner_specs: dict, controller_path, refine: bool):
+    controller = StepLengthController.load(controller_path or DEFAULT_WEIGHTS, refine=refine)
+    _WORKER["controller"] = controller
+    _WORKER["planners"] = {name: make(name, **({"controller": controller} if takes(name, "controller") else {}),
+                                      **opts) for name, opts in planner_specs.items()}
+
+
+def _run_task(planner_name: str, case_dict: dict, goal_x: float, friction: float, config: EvalConfig):
+    from .suite import suite_from_dict
+
+    suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "task", "goal_x": goal_x,
+                             "friction": friction, "cases": [case_dict]})
+    result = run_case(_WORKER["planners"][planner_name], _WORKER["controller"], suite.cases[0], goal_x,
+                      SlipParams(friction=friction), config)
+    return planner_name, result
+
+
+def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, controller_path) -> str:
+    """Identifies a (suite, planner, options) run, so cached cases are reused only for the same setup."""
+    blob = json.dumps([suite.to_dict(), planner, options, config.__dict__, str(controller_path)], sort_keys=True,
+                      default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def load_cache(path: Path) -> dict:
+    """{(fingerprint, case id): result} from a JSON-lines cache; a line cut short by a kill is skipped."""
+    cache = {}
+    if path.exists():
+        for line in path.read_text().splitlines():
+            try:
+                entry = json.loads(line)
+                cache[(entry["key"], entry["result"]["id"])] = entry["result"]
+            except (json.JSONDecodeError, KeyError, TypeError):
+                continue
+    return cache
+
+
+def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs: int = 1,
+             cache_path=None, controller_path=None, config: EvalConfig = EvalConfig(), progress: bool = True) -> dict:
+    """Run every planner on the first ``n_cases`` cases (all if None), ``jobs`` processes. Finished cases are
+    appended to ``cache_path`` (JSON lines) as they complete and skipped when the run is started again."""
+    from tqdm import tqdm
+
+    cases = list(suite.cases[:n_cases] if n_cases else suite.cases)
+    keys = {name: fingerprint(suite, name, opts, config, controller_path) for name, opts in planner_specs.items()}
+    cache_path = Path(cache_path) if cache_path else None
+    cache = load_cache(cache_path) if cache_path else {}
+    done = {name: {} for name in planner_specs}
+    todo = []
+    for name in planner_specs:
+        for c in cases:
+            hit = cache.get((keys[name], c.id))
+            if hit is not None:
+                done[name][c.id] = hit
+            else:
+                todo.append((name, c))
+    bar = tqdm(total=len(todo), desc=f"{suite.name}", disable=not progress, unit="case")
+    sink = open(cache_path, "a") if cache_path else None
+    try:
+        def finish(name, result):
+            done[name][result["id"]] = result
+            if sink:
+                sink.write(json.dumps({"key": keys[name], "result": result}) + "\n")
+                sink.flush()
+                os.fsync(sink.fileno())
+            bar.update(1)
+            bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
+
+        payload = lambda c: {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}
+        if jobs <= 1:
+            _init_worker(planner_specs, controller_path, config.refine)
+            for name, c in todo:
+                finish(*_run_task(name, payload(c), suite.goal_x, suite.friction, config))
+        else:
+            import multiprocessing as mp
+
+            for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+                os.environ.setdefault(var, "1")  # one process per core: no BLAS/OpenMP thread spinning
+            with ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn"), initializer=_init_worker,
+                                     initargs=(planner_specs, controller_path, config.refine)) as pool:
+                futures = [pool.submit(_run_task, name, payload(c), suite.goal_x, suite.friction, config)
+                           for name, c in todo]
+                for f in as_completed(futures):
+                    finish(*f.result())
+    finally:
+        bar.close()
+        if sink:
+            sink.close()
+    return {"suite": suite.name,
+            "planners": {name: summarize([done[name][c.id] for c in cases]) for name in planner_specs}}
+
+
+def write_json(results: dict, path) -> None:
+    """Write atomically: a temporary file renamed over the target."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(json.dumps(results, indent=1))
+    os.replace(tmp, path)

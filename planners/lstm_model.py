@@ -1,0 +1,110 @@
+"""The paper's CNN+LSTM footstep model (section VI).
+
+    h0    = g0(a)                     a single linear layer from the initial apex to the LSTM state
+    v_i   = CNN([t, s_{i-1}])         terrain window and previous-step distribution, two channels of a 1-D image
+    s_i, h_i = LSTM(h_{i-1}, v_i)     2 layers x 110 units; a linear head gives logits over the window's cells
+
+Inputs, all in the perception window of ``n_cells`` cells (8 m ahead, 3 m behind the body, 10 cm cells):
+``terrain`` (B, n_cells) heights relative to the ground under the body, clipped to [-1, 1]; ``apex`` (B, 3) =
+(body height above the ground under it, forward speed, body x offset inside its cell); ``prev`` (B, T,
+n_cells) the previous step of each of the T steps as a distribution over cells. ``s_0`` is the one-hot cell
+under the body at the start apex (our planner is called at the apex, before the leg angle is chosen, so the
+body's own cell replaces the paper's "inevitable touchdown").
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import torch
+from torch import nn
+
+
+@dataclass(frozen=True)
+class ModelConfig:
+    n_cells: int = 110        # perception window: 11 m in 10 cm cells
+    hidden: int = 110         # LSTM units per layer (the paper)
+    layers: int = 2
+    channels: int = 8         # CNN feature maps
+    kernel: int = 7           # 7x1 filters (the paper)
+    apex_features: int = 3
+
+
+class FootstepModel(nn.Module):
+    def __init__(self, config: ModelConfig = ModelConfig()):
+        super().__init__()
+        c = config
+        self.config = c
+        self.g0 = nn.Linear(c.apex_features, 2 * c.layers * c.hidden)  # initial (h, c) of every layer
+        self.cnn = nn.Sequential(
+            nn.Conv1d(2, c.channels, c.kernel, padding=c.kernel // 2), nn.ReLU(),
+            nn.Conv1d(c.channels, c.channels, c.kernel, padding=c.kernel // 2), nn.ReLU(),
+            nn.Flatten(), nn.Linear(c.channels * c.n_cells, c.n_cells), nn.ReLU())
+        self.lstm = nn.LSTM(c.n_cells, c.hidden, num_layers=c.layers, batch_first=True)
+        self.head = nn.Linear(c.hidden, c.n_cells)
+
+    def initial_state(self, apex: torch.Tensor):
+        c = self.config
+        hc = self.g0(apex).view(-1, 2, c.layers, c.hidden).permute(1, 2, 0, 3)
+        return hc[0].contiguous(), hc[1].contiguous()
+
+    def encode(self, terrain: torch.Tensor, prev: torch.Tensor) -> torch.Tensor:
+        """(B, T, n) terrain-and-previous-step images -> (B, T, n) LSTM inputs."""
+        b, t, n = prev.shape
+        image = torch.stack((terrain.unsqueeze(1).expand(b, t, n), prev), dim=2)  # (B, T, 2, n)
+        return self.cnn(image.reshape(b * t, 2, n)).view(b, t, -1)
+
+    def forward(self, terrain, apex, prev, state=None):
+        """Logits (B, T, n) for steps 1..T given the previous steps; returns (logits, lstm state)."""
+        out, state = self.lstm(self.encode(terrain, prev), state if state is not None else self.initial_state(apex))
+        return self.head(out), state
+
+    @torch.no_grad()
+    def rollout(self, terrain, apex, s0, n_steps: int, mask=None, temperature: float = 1.0):
+        """Plan n_steps ahead, feeding each step's own distribution back in (the paper's planning mode).
+        ``mask`` (B, n) bool marks cells a foot may never use (e.g. ditches). Returns (B, n_steps, n) probs."""
+        prev = s0.unsqueeze(1)
+        state = self.initial_state(apex)
+        probs = []
+        for _ in range(n_steps):
+            logits, state = self.forward(terrain, apex, prev, state)
+            logits = logits[:, -1] / temperature
+            if mask is not None:
+                logits = logits.masked_fill(mask, float("-inf"))
+            p = torch.softmax(logits, dim=-1)
+            probs.append(p)
+            prev = p.unsqueeze(1)
+        return torch.stack(probs, dim=1)
+
+
+def save_checkpoint(path, model: FootstepModel, extra: dict | None = None) -> None:
+    """Write weights and config atomically."""
+    import os
+    import tempfile
+
+    payload = {"format": "drakeslip-lstm/1", "config": asdict(model.config), "state_dict": model.state_dict(),
+               **(extra or {})}
+    directory = os.path.dirname(os.path.abspath(path))
+    os.makedirs(directory, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
+    os.close(fd)
+    torch.save(payload, tmp)
+    os.replace(tmp, path)
+
+
+def load_checkpoint(path, map_location="cpu") -> tuple[FootstepModel, dict]:
+    """Load a checkpoint written by save_checkpoint; a corrupt or mismatched file raises ValueError naming it."""
+    try:
+        payload = torch.load(path, map_location=map_location, weights_only=False)
+    except FileNotFoundError:
+        raise
+    except Exception as err:
+        raise ValueError(f"cannot read LSTM weights file {path}: {err}") from err
+    if not isinstance(payload, dict) or payload.get("format") != "drakeslip-lstm/1":
+        raise ValueError(f"{path} is not a drakeslip LSTM checkpoint (missing format 'drakeslip-lstm/1')")
+    try:
+        model = FootstepModel(ModelConfig(**payload["config"]))
+        model.load_state_dict(payload["state_dict"])
+    except (KeyError, TypeError, RuntimeError) as err:
+        raise ValueError(f"LSTM weights file {path} does not match the model: {err}") from err
+    model.eval()
+    return model, payload

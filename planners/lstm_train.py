@@ -1,0 +1,155 @@
+"""Training loop for the CNN+LSTM footstep model: plain PyTorch, readable top to bottom.
+
+Previous-step inputs: the first input is the one-hot cell under the body; later inputs are teacher-forced
+one-hot footholds, except that for a fraction ``own_inputs`` of the sequences in every batch they are replaced
+by the model's own (detached) distributions from a teacher-forced pass. At planning time the model is fed its
+own distributions, so training on both keeps it calibrated to soft inputs.
+"""
+from __future__ import annotations
+
+import json
+import math
+import os
+import time
+from dataclasses import asdict, dataclass
+
+import numpy as np
+import torch
+import torch.nn.functional as F
+
+from .lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkpoint
+
+
+@dataclass
+class TrainConfig:
+    data: str = "data/footsteps"        # folder of dataset shards (*.npz) written by generate_dataset
+    out: str = "planners/weights/lstm.pt"
+    checkpoint: str = "out/lstm_checkpoint.pt"
+    epochs: int = 30
+    batch_size: int = 256
+    lr: float = 2e-3
+    weight_decay: float = 1e-4
+    val_fraction: float = 0.1
+    own_inputs: float = 0.3
+    seed: int = 0
+    device: str = "cpu"
+    max_sequences: int = 0              # 0 = all
+
+
+def load_dataset(folder: str, max_sequences: int = 0) -> dict:
+    """Concatenate the shards in ``folder`` into arrays: terrain (N, n), apex (N, 3), s0 (N,), steps (N, T)
+    with -1 padding."""
+    files = sorted(f for f in os.listdir(folder) if f.endswith(".npz"))
+    if not files:
+        raise ValueError(f"no dataset shards (*.npz) in {folder}")
+    parts = [np.load(os.path.join(folder, f)) for f in files]
+    t_max = max(p["steps"].shape[1] for p in parts)
+    steps = np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
+                            for p in parts])
+    data = {"terrain": np.concatenate([p["terrain"] for p in parts]).astype(np.float32),
+            "apex": np.concatenate([p["apex"] for p in parts]).astype(np.float32),
+            "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int64),
+            "steps": steps.astype(np.int64)}
+    n_cells = data["terrain"].shape[1]
+    if data["steps"].max() >= n_cells or data["s0"].max() >= n_cells or data["s0"].min() < 0:
+        raise ValueError(f"dataset in {folder} has foothold cells outside the {n_cells}-cell window")
+    if max_sequences:
+        data = {k: v[:max_sequences] for k, v in data.items()}
+    return data
+
+
+def one_hot_inputs(s0: torch.Tensor, steps: torch.Tensor, n_cells: int) -> torch.Tensor:
+    """Teacher-forced previous steps: [s0, step_1, ..., step_{T-1}] as one-hot (padding -> zeros)."""
+    prev_idx = torch.cat((s0.unsqueeze(1), steps[:, :-1]), dim=1)
+    return F.one_hot(prev_idx.clamp(min=0), n_cells).float() * (prev_idx >= 0).unsqueeze(-1)
+
+
+def batch_loss(model: FootstepModel, batch: dict, own_inputs: float = 0.0, generator=None):
+    """Cross-entropy over the real (non-padded) steps; returns (loss, top-1 hits, within-1 hits, count)."""
+    n = model.config.n_cells
+    prev = one_hot_inputs(batch["s0"], batch["steps"], n)
+    if own_inputs > 0:
+        with torch.no_grad():
+            own = torch.softmax(model(batch["terrain"], batch["apex"], prev)[0], dim=-1)
+        use_own = torch.rand(prev.shape[0], device=prev.device, generator=generator) < own_inputs
+        # Step i's input is the model's distribution for step i-1; the first input stays the one-hot s0.
+        soft = torch.cat((prev[:, :1], own[:, :-1] * (batch["steps"][:, :-1] >= 0).unsqueeze(-1)), dim=1)
+        prev = torch.where(use_own.view(-1, 1, 1), soft, prev)
+    logits, _ = model(batch["terrain"], batch["apex"], prev)
+    target = batch["steps"]
+    loss = F.cross_entropy(logits.reshape(-1, n), target.reshape(-1), ignore_index=-1)
+    valid = target >= 0
+    pred = logits.argmax(-1)
+    top1 = ((pred == target) & valid).sum().item()
+    near = (((pred - target).abs() <= 1) & valid).sum().item()
+    return loss, top1, near, valid.sum().item()
+
+
+def _batches(data: dict, idx: np.ndarray, batch_size: int, device: str):
+    for start in range(0, idx.size, batch_size):
+        sel = idx[start:start + batch_size]
+        yield {k: torch.from_numpy(v[sel]).to(device) for k, v in data.items()}
+
+
+def evaluate(model: FootstepModel, data: dict, idx: np.ndarray, cfg: TrainConfig) -> dict:
+    model.eval()
+    total = top1 = near = count = 0.0
+    with torch.no_grad():
+        for batch in _batches(data, idx, cfg.batch_size, cfg.device):
+            loss, t1, nr, c = batch_loss(model, batch)
+            total += loss.item() * c
+            top1, near, count = top1 + t1, near + nr, count + c
+    model.train()
+    return {"loss": total / max(count, 1), "top1": top1 / max(count, 1), "within1": near / max(count, 1)}
+
+
+def train(cfg: TrainConfig, model_config: ModelConfig = ModelConfig(), log=print) -> dict:
+    """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``."""
+    torch.manual_seed(cfg.seed)
+    rng = np.random.default_rng(cfg.seed)
+    data = load_dataset(cfg.data, cfg.max_sequences)
+    n = data["terrain"].shape[0]
+    if data["terrain"].shape[1] != model_config.n_cells:
+        raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells, model expects "
+                         f"{model_config.n_cells}")
+    order = rng.permutation(n)
+    n_val = max(1, int(round(cfg.val_fraction * n)))
+    val_idx, train_idx = order[:n_val], order[n_val:]
+
+    model = FootstepModel(model_config).to(cfg.device)
+    opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+    history, start_epoch, best = [], 0, math.inf
+    if cfg.checkpoint and os.path.exists(cfg.checkpoint):
+        model, payload = load_checkpoint(cfg.checkpoint, map_location=cfg.device)
+        model.train()
+        opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
+        opt.load_state_dict(payload["optimizer"])
+        history, start_epoch, best = payload["history"], payload["epoch"] + 1, payload["best_val"]
+        log(f"resumed from {cfg.checkpoint} at epoch {start_epoch}")
+    generator = torch.Generator(device=cfg.device).manual_seed(cfg.seed)
+
+    for epoch in range(start_epoch, cfg.epochs):
+        t0 = time.time()
+        for group in opt.param_groups:  # cosine schedule, recomputed so that resuming needs no scheduler state
+            group["lr"] = 0.5 * cfg.lr * (1 + math.cos(math.pi * epoch / cfg.epochs))
+        epoch_idx = train_idx[np.random.default_rng(cfg.seed + epoch).permutation(train_idx.size)]
+        total = count = 0.0
+        for batch in _batches(data, epoch_idx, cfg.batch_size, cfg.device):
+            loss, _, _, c = batch_loss(model, batch, cfg.own_inputs, generator)
+            opt.zero_grad(set_to_none=True)
+            loss.backward()
+            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+            opt.step()
+            total, count = total + loss.item() * c, count + c
+        val = evaluate(model, data, val_idx, cfg)
+        row = {"epoch": epoch, "train_loss": total / max(count, 1), **{f"val_{k}": v for k, v in val.items()},
+               "seconds": time.time() - t0}
+        history.append(row)
+        log(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}))
+        if val["loss"] < best:
+            best = val["loss"]
+            save_checkpoint(cfg.out, model, {"train_config": asdict(cfg), "val": val})
+        if cfg.checkpoint:
+            save_checkpoint(cfg.checkpoint, model, {"optimizer": opt.state_dict(), "epoch": epoch,
+                                                    "history": history, "best_val": best})
+    return {"history": history, "best_val_loss": best, "n_train": int(train_idx.size), "n_val": int(n_val)}

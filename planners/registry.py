@@ -1,0 +1,33 @@
+"""Planner registry: ``make(name, **options)`` builds any registered planner by name."""
+from __future__ import annotations
+
+_PLANNERS: dict = {}
+
+
+def register(name: str):
+    """Class decorator: ``@register("angle")`` makes the class available as ``make("angle")``."""
+    def add(cls):
+        if name in _PLANNERS:
+            raise ValueError(f"a planner named {name!r} is already registered")
+        cls.name = name
+        _PLANNERS[name] = cls
+        return cls
+    return add
+
+
+def available() -> list[str]:
+    return sorted(_PLANNERS)
+
+
+def takes(name: str, option: str) -> bool:
+    """Whether the planner registered as ``name`` accepts ``option`` (e.g. a shared ``controller``)."""
+    import inspect
+
+    return name in _PLANNERS and option in inspect.signature(_PLANNERS[name]).parameters
+
+
+def make(name: str, **options):
+    """A planner by name with its options, e.g. ``make("angle", branching=20, seed=0)``."""
+    if name not in _PLANNERS:
+        raise ValueError(f"unknown planner {name!r}; known planners: {', '.join(available())}")
+    return _PLANNERS[name](**options)

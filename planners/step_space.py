@@ -1,0 +1,101 @@
+"""The Step-space planner: the Angle-space search with children from a grid of desired footholds passed
+through the low-level controller (paper, section V-C), so every planned step is one the controller hits."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from drakeslip import step_batch
+from drakeslip.controller import StepLengthController
+
+from .angle_space import EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, run_attempts
+from .base import Plan, Planner, Problem
+from .registry import register
+from .search import Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation, warm_up
+
+
+@register("step")
+class StepSpacePlanner(Planner):
+    """Children: desired footholds x_L on a grid of ``spacing`` (default a quarter of a terrain cell, offset so
+    no x_L sits on a cell edge) between the touchdowns of the extreme friction-cone angles, +-0.3 m for the
+    terrain. The paper used 0.5 m over a 5 m horizon; a 0.5 m leg reaches about 1 m per hop, and at low speed
+    the footholds that keep the next hop alive span only 10-15 cm, so a fine grid is what finds them.
+    Ditch cells, x_L within ``edge_margin`` of an edge, and x_L the controller can only reach outside the
+    friction cone are dropped before simulation; the rest go through the controller and one batched fast
+    step-map call, and a child is kept when the hop succeeds, lands within ``tolerance`` of x_L and keeps
+    ``min_speed``. The plan's footholds are the x_L. If a search finds no sequence it is retried on each
+    ``fallback_spacing`` grid (like the paper's fallback branching): a fast, high hop keeps its next hop
+    alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds."""
+
+    def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
+                 tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
+                 weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
+                 edge_margin: float = EDGE_MARGIN, **budget):
+        super().__init__(**budget)
+        self.controller = controller or StepLengthController.load_default()
+        self.spacings = (spacing, *fallback_spacing)
+        for s in self.spacings:
+            if s is not None and not (math.isfinite(s) and s > 0):
+                raise ValueError(f"spacing must be a positive distance, got {s!r}")
+        if not (isinstance(n_sequences, int) and n_sequences >= 1):
+            raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
+        self.tolerance = float(tolerance)
+        self.n_sequences = n_sequences
+        self.weights = weights if isinstance(weights, CostWeights) else CostWeights(*weights)
+        self.min_speed = float(min_speed)
+        self.edge_margin = float(edge_margin)
+        warm_up()
+
+    def candidates(self, apex, terrain, params, spacing: float | None, until: float | None = None) -> np.ndarray:
+        """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing, up to ``until``
+        if given. The planner itself asks for the full reach: hops that would land past the perception window
+        are simulated too, to tell a sequence that has gone as far as the robot can see (see best_first)."""
+        x, z, v = apex
+        limit = FRICTION_MARGIN * math.atan(params.friction)
+        drop = z - terrain.height_at(x)
+        L0, g = params.leg_length, params.gravity
+        reach = [L0 * math.sin(a) + v * math.sqrt(2 * max(drop - L0 * math.cos(a), 0.0) / g) for a in (-limit, limit)]
+        lo, hi = x + reach[0] - 0.3, min(x + reach[1] + 0.3, math.inf if until is None else until)
+        spacing = spacing or terrain.cell / 4
+        first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
+        return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
+
+    def _search(self, problem: Problem, spacing) -> SearchResult:
+        return self.search_with(problem, lambda tree, node: self.candidates(
+            tree.apex[node], problem.terrain, problem.params, spacing))
+
+    def search_with(self, problem: Problem, propose) -> SearchResult:
+        """Best-first search whose children at a node are the desired footholds ``propose(tree, node)``
+        (sorted by x), each passed through the controller and the fast step map."""
+        params, terrain = problem.params, problem.terrain
+        limit = math.atan(params.friction)
+        controller = self.controller
+
+        def expand(tree, node) -> Children:
+            apex = tree.apex[node]
+            x_l = propose(tree, node)
+            keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, self.edge_margin)
+            theta = np.full(x_l.size, np.nan)
+            if keep.any():
+                theta[keep] = controller.leg_angles(apex, x_l[keep], terrain)
+                keep &= np.abs(np.nan_to_num(theta, nan=np.inf)) < limit
+            ok = keep.copy()
+            apexes = np.zeros((x_l.size, 3))
+            if keep.any():
+                res = step_batch(apex, theta[keep], terrain, params)
+                ok[keep] = (res.ok & (np.abs(res.touchdown_x - x_l[keep]) < self.tolerance)
+                            & (res.next_xdot >= self.min_speed))
+                apexes[keep] = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)
+            inside = x_l < problem.window_end  # hops past the window end the sequence, they are not in it
+            d = isolation(x_l, ok)[inside[ok]]
+            beyond = bool(np.any(ok & ~inside))
+            ok &= inside
+            return Children(theta[ok], x_l[ok], apexes[ok], d, int(keep.sum()), beyond)
+
+        return best_first(problem, expand, self.weights, self.n_sequences, self.budget.max_nodes)
+
+    def _plan(self, problem: Problem) -> Plan:
+        self.controller.check_params(problem.params)
+        return run_attempts(self, problem, [(f"grid {s or problem.terrain.cell / 4:g} m",
+                                             lambda s=s: self._search(problem, s)) for s in self.spacings])

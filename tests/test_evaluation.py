@@ -1,0 +1,89 @@
+"""Suites and the receding-horizon evaluation, end to end on the Drake simulator."""
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from planners import evaluation
+from planners.suite import load_suite, make_suite, save_suite
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _doc():
+    return make_suite("ditch", seed=7, n_terrains=1, speeds=(2.0,), heights=(0.9,)).to_dict()
+
+
+def test_suite_round_trip(tmp_path):
+    suite = make_suite("step", seed=3, n_terrains=2)
+    assert len(suite.cases) == 20 and suite.friction == 0.8 and suite.goal_x == 10.0
+    save_suite(suite, tmp_path / "s.json")
+    again = load_suite(tmp_path / "s.json")
+    assert again.to_dict() == suite.to_dict()
+
+
+@pytest.mark.parametrize("edit, field", [
+    (lambda d: d.pop("format"), "format"),
+    (lambda d: d.update(format="drakeslip-suite/0"), "format"),
+    (lambda d: d.update(goal_x="far"), "goal_x"),
+    (lambda d: d.update(friction=-1), "friction"),
+    (lambda d: d.update(cases=[]), "cases"),
+    (lambda d: d["cases"][0].pop("id"), r"cases\[0\].*'id'"),
+    (lambda d: d["cases"][0]["apex"].pop("z"), r"cases\[0\]\.apex.*'z'"),
+    (lambda d: d["cases"][0]["apex"].update(xdot=float("nan")), r"cases\[0\]\.apex\.xdot"),
+    (lambda d: d["cases"][0]["apex"].update(z=-2.0), r"cases\[0\]\.apex\.z"),
+    (lambda d: d["cases"][0]["terrain"]["heights"].__setitem__(5, "x"), r"cases\[0\]\.terrain\.heights\[5\]"),
+    (lambda d: d["cases"][0]["terrain"].update(cell=0), r"cases\[0\]\.terrain\.cell"),
+])
+def test_malformed_suite_names_the_field(tmp_path, edit, field):
+    doc = _doc()
+    edit(doc)
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps(doc))
+    with pytest.raises(ValueError, match=field):
+        load_suite(path)
+
+
+def test_suite_that_is_not_json(tmp_path):
+    path = tmp_path / "broken.json"
+    path.write_text("{")
+    with pytest.raises(ValueError, match="broken.json.*not valid JSON"):
+        load_suite(path)
+
+
+def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
+    suite_path = tmp_path / "suite.json"
+    save_suite(make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.9,)), suite_path)
+    out = tmp_path / "results.json"
+    cmd = [sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", str(suite_path), "--planners",
+           "heuristic,step", "--cases", "2", "--out", str(out), "--quiet"]
+    run = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert run.returncode == 0, run.stderr
+    assert "Success %" in run.stdout and "step" in run.stdout
+    results = json.loads(out.read_text())
+    assert set(results) == {"suite", "planners"}
+    assert set(results["planners"]) == {"heuristic", "step"}
+    for block in results["planners"].values():
+        assert set(block) == {"success_rate", "ode_calls_mean", "t_plan_mean_s", "t_plan_median_s", "cases"}
+        assert len(block["cases"]) == 2
+        for case in block["cases"]:
+            assert set(case) == {"id", "success", "failure", "final_x", "plans"}
+            assert case["success"] == (case["failure"] is None)
+            assert all({"ode_calls", "t_plan_s"} <= set(p) for p in case["plans"])
+    # the case cache lets a second run finish without running any case again
+    cache = Path(str(out) + ".cases.jsonl")
+    assert len(cache.read_text().splitlines()) == 4
+    with cache.open("a") as f:
+        f.write('{"key": "cut sh')  # a line cut short by a kill is ignored
+    again = evaluation.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
+                                progress=False, config=evaluation.EvalConfig())
+    assert again == results
+
+
+def test_unknown_planner_on_the_cli(tmp_path):
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "x.json",
+                          "--planners", "warp", "--out", str(tmp_path / "o.json")],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode != 0 and "unknown planner" in run.stderr

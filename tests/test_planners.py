@@ -1,0 +1,138 @@
+"""Planners on hand-made terrains with known answers, budgets, bad inputs and the search tree."""
+import math
+
+import numpy as np
+import pytest
+
+import planners
+from drakeslip import ApexState, SlipParams, Terrain, step_batch
+from drakeslip.terrain import DITCH_HEIGHT
+from planners.evaluation import EvalConfig, run_case
+from planners.suite import Case
+
+PARAMS = SlipParams(friction=0.8)
+NAMES = ["heuristic", "angle", "step"]
+
+
+@pytest.fixture(scope="module")
+def controller():
+    from drakeslip.controller import StepLengthController
+    return StepLengthController.load_default()
+
+
+@pytest.fixture(scope="module")
+def made(controller):
+    return {name: planners.make(name, **({"controller": controller} if name == "step" else {})) for name in NAMES}
+
+
+def test_unknown_planner_lists_the_known_ones():
+    with pytest.raises(ValueError, match="unknown planner 'astar'; known planners: ") as err:
+        planners.make("astar")
+    assert all(name in str(err.value) for name in NAMES)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_flat_ground_plan_moves_straight_to_the_target(made, name):
+    plan = made[name].plan((0.0, 1.0, 2.0), Terrain.flat(), 10.0, PARAMS)
+    assert plan.success, plan.message
+    assert plan.target_x == pytest.approx(7.0)  # the goal is beyond the 8 m window: aim 1 m short of its edge
+    assert np.all(np.diff(plan.footholds) > 0) and plan.footholds[0] > 0
+    assert plan.footholds[-1] < 8.0  # inside the perception window
+    # a plan passes the target, or ends where its next hop would leave the window (a stride from its edge)
+    assert plan.footholds[-1] >= plan.target_x or plan.footholds[-1] > 8.0 - 2.0
+    assert len(plan.leg_angles) == len(plan.footholds) == len(plan.apexes)
+    assert (plan.ode_calls == 0) == (name == "heuristic")
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_flat_ground_receding_horizon_reaches_the_goal(made, controller, name):
+    case = Case("flat", Terrain.flat(length=20.0), ApexState(0.0, 0.9, 2.0))
+    result = run_case(made[name], controller, case, 10.0, PARAMS, EvalConfig(backend="fast"))
+    assert result["success"], result
+    assert result["final_x"] >= 10.0
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_ditch_wider_than_any_hop_has_no_plan(made, name):
+    heights = np.zeros(230)
+    heights[40:] = DITCH_HEIGHT  # ground ends at x = 1 m; nothing to land on for the next 19 m
+    plan = made[name].plan((0.0, 1.0, 2.0), Terrain(heights), 10.0, PARAMS)
+    assert not plan.success
+    assert "no plan" in plan.message and len(plan.footholds) == 0
+
+
+@pytest.mark.parametrize("name", ["angle", "step"])
+def test_node_budget_is_respected(controller, name):
+    planner = planners.make(name, max_nodes=3, **({"controller": controller} if name == "step" else {}))
+    plan = planner.plan((0.0, 1.0, 2.0), Terrain.flat(), 10.0, PARAMS)
+    assert not plan.success and "nodes" in plan.message
+    # one fallback each: Angle-space from B=20 to B=30, Step-space from the 2.5 cm grid to the 1 cm one
+    assert plan.nodes_expanded <= 3 * 2
+
+
+@pytest.mark.parametrize("name", ["angle", "step"])
+def test_time_budget_is_respected(controller, name):
+    planner = planners.make(name, max_time_s=0.02, max_nodes=10**9, min_speed=0.0,
+                            **({"controller": controller} if name == "step" else {}))
+    plan = planner.plan((0.0, 1.0, 2.0), Terrain.flat(length=200.0), 150.0, PARAMS)  # too far for 20 ms
+    assert plan.time_s < 0.02 + 0.05
+
+
+@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("apex, match", [((0.0, math.nan, 2.0), "apex.z"), ((0.0, -0.1, 2.0), "not above"),
+                                         ((0.0, 1.0, -1.0), "xdot"), ((0.0, 1.0), "apex")])
+def test_bad_apex_is_rejected(made, name, apex, match):
+    with pytest.raises(ValueError, match=match):
+        made[name].plan(apex, Terrain.flat(), 10.0, PARAMS)
+
+
+def test_bad_goal_terrain_params_and_options_are_rejected(made):
+    with pytest.raises(ValueError, match="goal_x"):
+        made["angle"].plan((0, 1, 2), Terrain.flat(), math.nan, PARAMS)
+    with pytest.raises(TypeError, match="Terrain"):
+        made["angle"].plan((0, 1, 2), [0.0] * 10, 10.0, PARAMS)
+    with pytest.raises(TypeError, match="SlipParams"):
+        made["angle"].plan((0, 1, 2), Terrain.flat(), 10.0, {"friction": 0.8})
+    with pytest.raises(ValueError, match="max_nodes"):
+        planners.make("angle", max_nodes=0)
+    with pytest.raises(ValueError, match="branching"):
+        planners.make("angle", branching=0)
+
+
+def test_angle_search_is_seeded():
+    a = planners.make("angle", seed=3).plan((0, 1, 2), Terrain.flat(), 10.0, PARAMS)
+    b = planners.make("angle", seed=3).plan((0, 1, 2), Terrain.flat(), 10.0, PARAMS)
+    np.testing.assert_array_equal(a.leg_angles, b.leg_angles)
+
+
+def test_search_tree_paths_are_dynamically_feasible():
+    planner = planners.make("angle", n_sequences=3)
+    terrain = Terrain.flat()
+    result = planner.search((0.0, 1.0, 2.0), terrain, 10.0, PARAMS)
+    tree = result.tree
+    assert len(tree.goals) == 3 and len(tree.leaves()) > 3
+    for seq in list(tree.paths())[:20]:
+        apex = np.array([0.0, 1.0, 2.0])
+        for foothold, angle, nxt in zip(seq.footholds, seq.leg_angles, seq.apexes):
+            res = step_batch(apex, [angle], terrain, PARAMS)
+            assert res.ok[0] and res.touchdown_x[0] == pytest.approx(foothold)
+            apex = np.array([res.next_x[0], res.next_z[0], res.next_xdot[0]])
+            np.testing.assert_allclose(apex, nxt)
+
+
+def test_step_plan_footholds_are_what_the_controller_hits(made, controller):
+    terrain = Terrain.flat()
+    plan = made["step"].plan((0.0, 1.0, 2.0), terrain, 10.0, PARAMS)
+    apex = np.array([0.0, 1.0, 2.0])
+    for foothold, nxt in zip(plan.footholds, plan.apexes):
+        res = step_batch(apex, [controller.leg_angle(apex, foothold, terrain)], terrain, PARAMS)
+        assert res.ok[0] and abs(res.touchdown_x[0] - foothold) < 0.01
+        apex = nxt
+
+
+def test_heuristic_moves_steps_off_ditches(made):
+    heights = np.zeros(230)
+    heights[35:45] = DITCH_HEIGHT  # a ditch over 0.5 <= x < 1.5
+    plan = made["heuristic"].plan((0.0, 1.0, 2.0), Terrain(heights), 10.0, PARAMS)
+    assert plan.success
+    assert not np.any((plan.footholds >= 0.5 - 0.03) & (plan.footholds < 1.5 + 0.03))  # clear of it and its edges
