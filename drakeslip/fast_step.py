@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .dynamics import (FACE_TOLERANCE, GRAVITY, LEG_LENGTH, body_clearance, cell_index, classify_foot_contact,
+from .dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_index, classify_foot_contact,
                        foot_clearance, foot_position, friction_margin, leg_extension, leg_rate, stance_derivatives,
                        stroke_left)
 

@@ -3,12 +3,11 @@
     python3 examples/bench_backends.py --cases 30 --seed 0
 """
 import argparse
-import time
 
 import numpy as np
 
 import drakeslip as ds
-from verification.backend_agreement import draw_cases
+from verification.backend_agreement import best_time, draw_cases
 
 N_ANGLES = 30  # the batch: this many leg angles from each apex, as a planner expands a node
 
@@ -26,19 +25,11 @@ def main():
     angles = np.linspace(-params.max_leg_angle, params.max_leg_angle, N_ANGLES)
     ds.step_batch(cases[0].apex, angles, terrains[0], params)  # load the compiled kernel before timing
 
-    def best_of(fn, repeats):
-        best = np.inf
-        for _ in range(repeats):
-            t0 = time.perf_counter()
-            fn()
-            best = min(best, time.perf_counter() - t0)
-        return best
-
     single, batch, drake = [], [], []
     for case, terrain in zip(cases, terrains):
-        single.append(best_of(lambda: ds.step(case.apex, case.leg_angle, terrain, params), args.repeats))
-        batch.append(best_of(lambda: ds.step_batch(case.apex, angles, terrain, params), args.repeats) / N_ANGLES)
-        drake.append(best_of(lambda: ds.step(case.apex, case.leg_angle, terrain, params, backend="drake"), 1))
+        single.append(best_time(lambda: ds.step(case.apex, case.leg_angle, terrain, params), args.repeats))
+        batch.append(best_time(lambda: ds.step_batch(case.apex, angles, terrain, params), args.repeats) / N_ANGLES)
+        drake.append(best_time(lambda: ds.step(case.apex, case.leg_angle, terrain, params, backend="drake"), 1))
     single_us, batch_us, drake_us = (np.median(t) * 1e6 for t in (single, batch, drake))
     print(f"{args.cases} random hops ({args.families}), median time per step:")
     print(f"  fast, one step per call      {single_us:10.1f} us   Drake / fast = {drake_us / single_us:8.0f}x")

@@ -2,12 +2,12 @@
 
     python3 -m pytest --benchmark-only -q tests/test_bench_stepmap.py
 """
-import time
 
 import numpy as np
 import pytest
 
 import drakeslip as ds
+from verification.backend_agreement import best_time
 
 APEX = (0.0, 0.6, 2.0)
 ANGLE = 0.25
@@ -20,15 +20,6 @@ SPEEDUP_TARGET = 500
 
 def fast_batch():
     return ds.step_batch(APEX, ANGLES, TERRAIN, PARAMS)
-
-
-def seconds_per_call(fn, repeats):
-    best = np.inf
-    for _ in range(repeats):
-        t0 = time.perf_counter()
-        fn()
-        best = min(best, time.perf_counter() - t0)
-    return best
 
 
 @pytest.fixture(scope="module", autouse=True)
@@ -56,8 +47,8 @@ def test_drake_step(benchmark):
                                 rounds=3, iterations=1)
     assert result.ok
     # Side by side in this process: Drake against the fast backend's per-step time in a batch.
-    drake = benchmark.stats.stats.min if benchmark.stats else seconds_per_call(
+    drake = benchmark.stats.stats.min if benchmark.stats else best_time(
         lambda: ds.step(APEX, ANGLE, TERRAIN, PARAMS, backend="drake"), 2)
-    fast = seconds_per_call(fast_batch, 200) / N_ANGLES
+    fast = best_time(fast_batch, 200) / N_ANGLES
     benchmark.extra_info["fast_speedup"] = drake / fast
     assert drake / fast >= SPEEDUP_TARGET, f"fast backend only {drake / fast:.0f}x faster than Drake"

@@ -1,5 +1,4 @@
 """The CNN+LSTM footstep model, its dataset generation and training, and the LSTM planner."""
-import os
 
 import numpy as np
 import pytest
@@ -8,7 +7,7 @@ import torch
 import drakeslip as ds
 from planners.dataset import DatasetConfig, count_sequences, pending_shards, shard_path, write_manifest, write_shard
 from planners.lstm_inputs import encode_window
-from planners.lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkpoint
+from planners.lstm_model import FootstepModel, ModelConfig, load_checkpoint
 from planners.lstm_train import TrainConfig, batch_loss, load_dataset, one_hot_inputs, train
 
 TINY = DatasetConfig(n_terrains=2, apexes_per_terrain=2, instances_per_shard=1, seed=1)

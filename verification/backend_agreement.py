@@ -127,6 +127,16 @@ class AgreementReport:
         return "\n".join(lines)
 
 
+def best_time(fn, repeats: int) -> float:
+    """Seconds of the fastest of ``repeats`` calls of ``fn`` (the least disturbed by a busy machine)."""
+    best = math.inf
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
 def draw_cases(n_cases: int, seed: int, families=("step",), params: ds.SlipParams | None = None) -> list[Case]:
     """Random hops on random terrains of the given families, drawn so that many succeed: apex x in 0.5-12 m
     (where the generated features are), the foot 0.1-0.5 m above the highest ground within a leg length of the
