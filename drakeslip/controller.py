@@ -21,7 +21,6 @@ survives only if the executed leg angle is the planned one.
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
@@ -29,6 +28,7 @@ import numpy as np
 import torch
 from torch import nn
 
+from .files import atomic_write
 from .params import SlipParams
 from .state import ApexState
 from .terrain import Terrain
@@ -143,14 +143,11 @@ class StepLengthController:
     # ---- persistence ---------------------------------------------------------------------------------
     def save(self, path) -> None:
         """Write the weights atomically (a temporary file renamed over the target)."""
-        path = Path(path)
-        path.parent.mkdir(parents=True, exist_ok=True)
         blob = {"format": WEIGHTS_FORMAT, "config": asdict(self.config), "state_dict": self.model.state_dict(),
                 "feature_mean": torch.tensor(self.feature_mean), "feature_std": torch.tensor(self.feature_std),
                 "params": asdict(self.params)}
-        tmp = path.with_name(path.name + ".tmp")
-        torch.save(blob, tmp)
-        os.replace(tmp, path)
+        with atomic_write(path) as f:
+            torch.save(blob, f)
 
     @classmethod
     def load(cls, path, refine: bool = True) -> "StepLengthController":

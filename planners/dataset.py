@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import json
 import os
-import tempfile
 import time
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
+from drakeslip.files import atomic_write
 
 from .angle_space import AngleSpacePlanner
 from .lstm_inputs import encode_window
@@ -124,11 +124,8 @@ def write_shard(cfg: DatasetConfig, k: int, folder: str) -> dict:
         "steps": np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
                                  for p in parts]).astype(np.int16),
     }
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".npz.tmp")
-    with os.fdopen(fd, "wb") as f:
+    with atomic_write(shard_path(folder, k)) as f:
         np.savez_compressed(f, **arrays)
-    os.replace(tmp, shard_path(folder, k))
     return {"shard": k, "sequences": int(arrays["steps"].shape[0]), "seconds": time.perf_counter() - t0,
             "ode_calls": int(sum(p["ode_calls"] for p in parts))}
 
@@ -144,11 +141,8 @@ def write_manifest(cfg: DatasetConfig, folder: str) -> None:
         if theirs != mine:
             raise ValueError(f"{folder} holds a dataset made with another config ({path}); use a new folder")
         return
-    os.makedirs(folder, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=folder, suffix=".json.tmp")
-    with os.fdopen(fd, "w") as f:
+    with atomic_write(path, "w") as f:
         json.dump(mine, f, indent=1)
-    os.replace(tmp, path)
 
 
 def pending_shards(cfg: DatasetConfig, folder: str) -> list[int]:

@@ -14,6 +14,7 @@ from pathlib import Path
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
+from drakeslip.files import atomic_write
 
 from .registry import make, takes
 from .suite import Case, Suite
@@ -232,8 +233,5 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
 
 def write_json(results: dict, path) -> None:
     """Write atomically: a temporary file renamed over the target."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(results, indent=1))
-    os.replace(tmp, path)
+    with atomic_write(path, "w") as f:
+        json.dump(results, f, indent=1)

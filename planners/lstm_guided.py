@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 import torch
 
+from .angle_space import run_attempts
 from .lstm_inputs import encode_window
 from .lstm_planner import FootstepDistribution, load_model
 from .registry import register
@@ -74,8 +75,6 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.seed = seed
 
     def _plan(self, problem):
-        from .angle_space import run_attempts
-
         self.controller.check_params(problem.params)
         return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.attempts])
 

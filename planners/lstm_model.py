@@ -18,6 +18,8 @@ from dataclasses import asdict, dataclass
 import torch
 from torch import nn
 
+from drakeslip.files import atomic_write
+
 
 @dataclass(frozen=True)
 class ModelConfig:
@@ -78,17 +80,10 @@ class FootstepModel(nn.Module):
 
 def save_checkpoint(path, model: FootstepModel, extra: dict | None = None) -> None:
     """Write weights and config atomically."""
-    import os
-    import tempfile
-
     payload = {"format": "drakeslip-lstm/1", "config": asdict(model.config), "state_dict": model.state_dict(),
                **(extra or {})}
-    directory = os.path.dirname(os.path.abspath(path))
-    os.makedirs(directory, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=directory, suffix=".tmp")
-    os.close(fd)
-    torch.save(payload, tmp)
-    os.replace(tmp, path)
+    with atomic_write(path) as f:
+        torch.save(payload, f)
 
 
 def load_checkpoint(path, map_location="cpu") -> tuple[FootstepModel, dict]:

@@ -3,11 +3,11 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
 from drakeslip import ApexState, Terrain
+from drakeslip.files import atomic_write
 from drakeslip.terrain import TERRAIN_FAMILIES
 
 SUITE_FORMAT = "drakeslip-suite/1"
@@ -64,11 +64,8 @@ def make_suite(family: str, seed: int, n_terrains: int = PAPER_TERRAINS, speeds=
 
 def save_suite(suite: Suite, path) -> None:
     """Write atomically (temporary file, then rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(path.name + ".tmp")
-    tmp.write_text(json.dumps(suite.to_dict()))
-    os.replace(tmp, path)
+    with atomic_write(path, "w") as f:
+        json.dump(suite.to_dict(), f)
 
 
 def _number(value, where: str, positive: bool = False) -> float:
