@@ -91,7 +91,7 @@ class StepLengthController:
         for w, b in self._layers:
             x = np.tanh(x @ w + b)
         theta = (x @ self._head[0] + self._head[1])[:, 0] * self.config.max_angle
-        return np.clip(theta, -self.config.max_angle, self.config.max_angle)
+        return np.minimum(np.maximum(theta, -self.config.max_angle), self.config.max_angle)
 
     def leg_angles(self, apex, footholds, terrain: Terrain, refine: bool | None = None) -> np.ndarray:
         """Leg angles for many desired footholds: from one apex (x, z, xdot), or one apex row per foothold."""
@@ -136,7 +136,8 @@ class StepLengthController:
             slope = L0 * np.cos(theta) + v * L0 * np.sin(theta) / (g * t)
             ok &= slope > 1e-3
             step = np.where(ok, (L0 * np.sin(theta) + v * t - target) / np.where(ok, slope, 1.0), 0.0)
-            new = np.clip(theta - np.clip(step, -0.1, 0.1), -lim, lim)
+            # np.minimum/np.maximum rather than np.clip: same result, a fifth of the call overhead
+            new = np.minimum(np.maximum(theta - np.minimum(np.maximum(step, -0.1), 0.1), -lim), lim)
             theta = np.where(feasible(new), new, 0.5 * (theta + boundary))
         return theta
 

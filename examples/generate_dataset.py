@@ -1,6 +1,8 @@
-"""Generate the footstep dataset (the paper's Table I) by running the Angle-space planner on random terrains.
+"""Generate the footstep dataset (the paper's Table I) by running a search planner on random terrains.
 
-    python3 examples/generate_dataset.py --out data/footsteps --jobs 2
+    python3 examples/generate_dataset.py --out data/footsteps --jobs 2      # Table I: the committed model's data
+    python3 examples/generate_dataset.py --planner step --min-steps 3 --start-x -1 --heights 0.55,1.1 \
+        --speeds 0.4,3.2 --out data/steps --jobs 2                         # the Step-space ablation (README)
     python3 examples/generate_dataset.py --out data/footsteps --executor ray [--ray-address auto]
 
 Shards are written atomically; rerunning the same command resumes and only generates the missing shards.
@@ -46,6 +48,14 @@ def main(argv=None):
     ap.add_argument("--out", default="data/footsteps", help="dataset folder (shards + config.json)")
     ap.add_argument("--terrains", type=int, default=DatasetConfig.n_terrains)
     ap.add_argument("--apexes", type=int, default=DatasetConfig.apexes_per_terrain, help="initial states per terrain")
+    ap.add_argument("--planner", choices=("angle", "step"), default=DatasetConfig.planner,
+                    help="the search whose trees become sequences (angle: the paper's)")
+    ap.add_argument("--min-steps", type=int, default=DatasetConfig.min_steps, help="shortest sequence kept")
+    ap.add_argument("--start-x", type=float, default=DatasetConfig.start_x, help="first x an instance starts at")
+    ap.add_argument("--heights", default=",".join(map(str, DatasetConfig.height_range)),
+                    help="initial apex height above the ground: low,high [m]")
+    ap.add_argument("--speeds", default=",".join(map(str, DatasetConfig.speed_range)),
+                    help="initial apex speed: low,high [m/s]")
     ap.add_argument("--branching", type=int, default=DatasetConfig.branching)
     ap.add_argument("--friction", type=float, default=DatasetConfig.friction)
     ap.add_argument("--seed", type=int, default=0)
@@ -54,7 +64,11 @@ def main(argv=None):
     ap.add_argument("--executor", choices=("local", "ray"), default="local")
     ap.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local instance)")
     args = ap.parse_args(argv)
-    cfg = DatasetConfig(n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
+    pair = lambda text, name: tuple(float(v) for v in text.split(",")) if len(text.split(",")) == 2 else \
+        ap.error(f"--{name} must be low,high, got {text!r}")
+    cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
+                        height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
+                        n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
                         friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size)
     write_manifest(cfg, args.out)
     shards = pending_shards(cfg, args.out)

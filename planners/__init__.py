@@ -2,12 +2,12 @@
 returns a ``Plan``. Registered: ``heuristic``, ``angle`` (Angle-space search), ``step`` (Step-space search),
 ``lstm`` (the CNN+LSTM model's modes), ``lstm-guided`` (Step-space search sampling the LSTM)."""
 from .base import Budget, FootstepSequence, Plan, Planner
-from .registry import available, make, register
+from .registry import available, make, register, takes
 from .search import CostWeights, SearchTree
 from . import heuristic, angle_space, step_space, lstm_planner, lstm_guided  # noqa: E402,F401  (registers the planners)
 from .angle_space import AngleSpacePlanner
 from .heuristic import HeuristicPlanner
 from .step_space import StepSpacePlanner
 
-__all__ = ["make", "available", "register", "Plan", "Planner", "Budget", "FootstepSequence", "CostWeights",
+__all__ = ["make", "available", "register", "takes", "Plan", "Planner", "Budget", "FootstepSequence", "CostWeights",
            "SearchTree", "AngleSpacePlanner", "StepSpacePlanner", "HeuristicPlanner"]

@@ -1,7 +1,7 @@
-"""Training data for the footstep model: Angle-space search trees turned into footstep sequences (Table I).
+"""Training data for the footstep model: search trees turned into footstep sequences (Table I).
 
-Each instance is one terrain and one initial apex. Its Angle-space search tree is grown to ``goal_sequences``
-goals, and every root-to-leaf path with at least ``min_steps`` footholds that covers at least
+Each instance is one terrain and one initial apex. Its search tree (Angle-space, as in the paper, or
+Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and every root-to-leaf path with at least ``min_steps`` footholds that covers at least
 ``min_progress`` of the distance to the search target becomes a sequence: the encoded perception window at
 the initial apex and the window cells of its footholds. Instances are grouped into shards; each shard is
 written atomically as one .npz, so an interrupted run resumes by skipping the shards already on disk.
@@ -19,6 +19,7 @@ from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
 from drakeslip.files import atomic_write
 
 from .angle_space import AngleSpacePlanner
+from .step_space import StepSpacePlanner
 from .lstm_inputs import encode_window
 
 
@@ -26,6 +27,7 @@ from .lstm_inputs import encode_window
 class DatasetConfig:
     """The paper's Table I by default."""
 
+    planner: str = "angle"              # "angle": the paper's; "step": Step-space trees (see README, LSTM)
     n_terrains: int = 360               # half ditch world, half step world
     apexes_per_terrain: int = 8
     min_steps: int = 8
@@ -39,11 +41,22 @@ class DatasetConfig:
     max_steps: int = 20                 # sequences are cut to their first max_steps footholds
     max_nodes: int = 2000
     max_time_s: float = 20.0
+    # initial apex: x from start_x on (a quarter on the first half metre), height above the ground under it
+    # and forward speed uniform in these ranges (the committed model's; examples/generate_dataset.py --help)
+    start_x: float = 0.0
+    height_range: tuple = (0.55, 0.85)
+    speed_range: tuple = (0.4, 2.6)
     families: tuple = ("ditch", "step")
     instances_per_shard: int = 16
     seed: int = 0
 
     def __post_init__(self):
+        if self.planner not in ("angle", "step"):
+            raise ValueError(f"DatasetConfig.planner must be 'angle' or 'step', got {self.planner!r}")
+        for name in ("height_range", "speed_range"):
+            lo, hi = getattr(self, name)
+            if not 0 < lo <= hi:
+                raise ValueError(f"DatasetConfig.{name} must be 0 < low <= high, got {getattr(self, name)!r}")
         unknown = [f for f in self.families if f not in TERRAIN_FAMILIES]
         if unknown:
             raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
@@ -67,24 +80,32 @@ def instance(cfg: DatasetConfig, i: int):
     family = cfg.families[t % len(cfg.families)]
     terrain = TERRAIN_FAMILIES[family](seed=cfg.seed * 1_000_003 + t)
     rng = np.random.default_rng([cfg.seed, i])
-    for _ in range(100):  # start over solid ground: on the flat run-in or anywhere along the course
-        x = rng.uniform(0.0, 0.5) if rng.random() < 0.25 else rng.uniform(0.0, cfg.goal_x - 2.0)
+    for _ in range(100):  # start over solid ground: near the start or anywhere along the course
+        x = rng.uniform(cfg.start_x, 0.5) if rng.random() < 0.25 else rng.uniform(cfg.start_x, cfg.goal_x - 2.0)
         if not terrain.is_ditch_at(x):
             break
-    apex = ApexState(x, terrain.height_at(x) + rng.uniform(0.55, 0.85), rng.uniform(0.4, 2.6))
+    apex = ApexState(x, terrain.height_at(x) + rng.uniform(*cfg.height_range), rng.uniform(*cfg.speed_range))
     return family, terrain, apex
+
+
+def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
+    """The search of instance i, with the dataset's friction; returns (SearchResult, planner horizon)."""
+    params = SlipParams(friction=cfg.friction)
+    budget = {"max_nodes": cfg.max_nodes, "max_time_s": cfg.max_time_s}
+    if cfg.planner == "angle":
+        planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
+                                    weights=cfg.weights, seed=cfg.seed * 7919 + i, **budget)
+    else:
+        planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, weights=cfg.weights, **budget)
+    return planner.search(apex, terrain, cfg.goal_x, params), planner.horizon
 
 
 def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
     """All qualifying sequences of instance i as arrays (terrain, apex, s0, steps), plus search statistics."""
     family, terrain, apex = instance(cfg, i)
-    planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
-                                weights=cfg.weights, seed=cfg.seed * 7919 + i, max_nodes=cfg.max_nodes,
-                                max_time_s=cfg.max_time_s)
-    params = SlipParams(friction=cfg.friction)
-    result = planner.search(apex, terrain, cfg.goal_x, params)
+    result, horizon = search_tree(cfg, i, apex, terrain)
     enc = encode_window(terrain, apex)
-    target = min(cfg.goal_x, apex.x + planner.horizon - 1.0)
+    target = min(cfg.goal_x, apex.x + horizon - 1.0)
     need = apex.x + cfg.min_progress * (target - apex.x)
     n_cells = enc.terrain.size
     steps = []
@@ -134,7 +155,8 @@ def write_manifest(cfg: DatasetConfig, folder: str) -> None:
     """Record the config; a folder made with another config is refused rather than silently mixed."""
     path = os.path.join(folder, "config.json")
     mine = asdict(cfg)
-    mine["families"], mine["weights"] = list(cfg.families), list(cfg.weights)
+    for name in ("families", "weights", "height_range", "speed_range"):
+        mine[name] = list(mine[name])  # as JSON reads them back
     if os.path.exists(path):
         with open(path) as f:
             theirs = json.load(f)

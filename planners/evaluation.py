@@ -156,10 +156,20 @@ def _run_task(planner_name: str, case_dict: dict, goal_x: float, friction: float
     return planner_name, result
 
 
+def _digest(path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()[:16] if path and Path(path).exists() else str(path)
+
+
 def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, controller_path) -> str:
-    """Identifies a (suite, planner, options) run, so cached cases are reused only for the same setup."""
-    blob = json.dumps([suite.to_dict(), planner, options, config.__dict__, str(controller_path)], sort_keys=True,
-                      default=str)
+    """Identifies a (suite, planner, options, weights) run, so cached cases are reused only for the same setup:
+    retraining the controller or the LSTM invalidates them."""
+    weights = None
+    if takes(planner, "weights"):
+        from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
+
+        weights = _digest(options.get("weights") or LSTM_WEIGHTS)
+    blob = json.dumps([suite.to_dict(), planner, options, config.__dict__, _digest(controller_path or DEFAULT_WEIGHTS),
+                       weights], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 

@@ -3,12 +3,13 @@ distribution over the next foothold, given the path from the root to the node be
 from __future__ import annotations
 
 import numpy as np
-import torch
 
 from .angle_space import run_attempts
+from .lstm_inference import softmax
 from .lstm_inputs import encode_window
 from .lstm_planner import FootstepDistribution, load_model
 from .registry import register
+from .search import Children, best_first
 from .step_space import StepSpacePlanner
 
 
@@ -17,49 +18,50 @@ class PathConditionedSampler:
     cached, so expanding a node costs one LSTM step (the paper passes the whole root-to-node path as the past
     steps; this is the same computation without repeating it)."""
 
-    def __init__(self, net: FootstepDistribution, problem, temperature: float, seed: int):
+    def __init__(self, net: FootstepDistribution, problem, temperature: float):
         self.model = net.model
         self.enc = encode_window(problem.terrain, problem.apex)
-        self.terrain, self.apex, self.s0, self.mask = net.tensors(self.enc)
+        self.terrain, self.apex, self.s0, self.mask = net.inputs(self.enc)
         self.temperature = temperature
-        self.rng = np.random.default_rng(seed)
-        self.cache: dict = {}  # node -> (logits of the step after it, LSTM state after it)
+        self.cache: dict = {}  # node -> (probabilities of the step after it, LSTM state after it)
 
-    @torch.no_grad()
     def _advance(self, tree, node: int):
         if node not in self.cache:
             if node == 0:
                 prev, state = self.s0, self.model.initial_state(self.apex)
             else:
-                prev = torch.zeros(1, self.enc.terrain.size)
+                prev = np.zeros_like(self.s0)
                 prev[0, int(np.clip(self.enc.cell_of(tree.foothold[node]), 0, prev.shape[1] - 1))] = 1.0
                 state = self._advance(tree, tree.parent[node])[1]
-            logits, after = self.model(self.terrain, self.apex, prev.unsqueeze(1), state)
-            self.cache[node] = (logits[0, -1], after)
+            logits, after = self.model.step(self.terrain, prev, state)
+            self.cache[node] = (softmax(logits[0] / self.temperature, None if self.mask is None else self.mask[0]),
+                                after)
         return self.cache[node]
 
-    def sample(self, tree, node: int, k: int, candidates: np.ndarray) -> np.ndarray:
-        """k distinct footholds drawn from ``candidates`` (the Step-space grid the hop can reach), each weighted by
-        the temperature-scaled probability of its cell; returned sorted. Ditch cells have zero weight."""
-        logits = self._advance(tree, node)[0] / self.temperature
-        if self.mask is not None:
-            logits = logits.masked_fill(self.mask[0], float("-inf"))
-        cells = self.enc.cell_of(candidates)
-        inside = (cells >= 0) & (cells < logits.shape[0])
-        p = np.zeros(candidates.size)
-        p[inside] = torch.softmax(logits, dim=-1).double().numpy()[cells[inside]]
-        k = min(k, int(np.count_nonzero(p)))
-        if k == 0:
-            return np.zeros(0)
-        return np.sort(self.rng.choice(candidates, size=k, replace=False, p=p / p.sum()))
+    def weights(self, tree, node: int, x_l: np.ndarray) -> np.ndarray:
+        """The temperature-scaled probability of each candidate foothold's cell for the step after ``node``
+        (0 outside the window and, with ditch masking, in ditches)."""
+        probs = self._advance(tree, node)[0]
+        cells = self.enc.cell_of(x_l)
+        inside = (cells >= 0) & (cells < probs.size)
+        p = np.zeros(x_l.size)
+        p[inside] = probs[cells[inside]]
+        return p
 
 
 @register("lstm-guided")
 class LSTMGuidedPlanner(StepSpacePlanner):
-    """Step-space search whose children are ``branching`` footholds sampled from the LSTM (temperature
-    ``temperature`` widens the distribution for sampling); a search that finds nothing is retried with each
-    ``fallback`` branching (the paper: 3, then 5). Every child still goes through the controller and the fast
-    step map, so the plan is one the controller can hit."""
+    """Step-space search whose children are ``branching`` footholds sampled from the LSTM given the path to
+    the node (temperature ``temperature`` widens the distribution for sampling); a search that finds nothing
+    is retried with each ``fallback`` branching (the paper: 3, then 5). Every child still goes through the
+    controller and the fast step map, so the plan is one the controller can hit.
+
+    Beyond the paper, progressive widening: a node whose sampled children all fail draws the next
+    ``branching`` instead of dying, and a node with candidates left returns to the queue, so the search comes
+    back to it when its children's subtrees die. Often only a band of footholds a few cm wide keeps the hop
+    and the next one alive, narrower than the model's 10 cm cells, so three samples may miss it while the
+    fourth or seventh hits it. Only the drawn candidates are aimed (the controller's cost dominates a
+    Step-space expansion)."""
 
     def __init__(self, weights=None, branching: int = 3, fallback: tuple = (5,), temperature: float = 1.0,
                  mask_ditches: bool = True, seed: int = 0, **options):
@@ -79,11 +81,47 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.attempts])
 
     def _search(self, problem, branching):
-        sampler = PathConditionedSampler(self.net, problem, self.temperature, self.seed)
+        sampler = PathConditionedSampler(self.net, problem, self.temperature)
+        terrain, params = problem.terrain, problem.params
+        rng = np.random.default_rng(self.seed)
+        draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
 
-        def propose(tree, node):
-            grid = self.candidates(tree.apex[node], problem.terrain, problem.params, self.spacings[0],
-                                   problem.window_end)
-            return sampler.sample(tree, node, branching, grid)
+        def expand(tree, node) -> Children:
+            """Simulate the node's next ``branching`` admissible candidates in LSTM-weighted random order (a
+            weighted draw without replacement), more until one succeeds; candidates are aimed lazily, in small
+            chunks. A node with candidates left goes back in the queue (Children.more)."""
+            if node not in draws:
+                apex = tree.apex[node]
+                x_l = self.candidates(apex, terrain, params, self.spacings[0], problem.window_end)
+                order = weighted_order(sampler.weights(tree, node, x_l), rng)
+                draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
+            d = draws[node]
+            apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
+            ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
+            tried = []
+            while d["pos"] < order.size or d["ready"]:
+                while len(d["ready"]) < branching and d["pos"] < order.size:  # aiming is the cost: lazily
+                    chunk = order[d["pos"]:d["pos"] + 4 * branching]
+                    d["pos"] += chunk.size
+                    theta[chunk] = self.aim(apex, x_l[chunk], terrain, params)
+                    d["ready"] += [i for i in chunk.tolist() if theta[i] == theta[i]]
+                batch = np.array(d["ready"][:branching], dtype=np.int64)
+                d["ready"] = d["ready"][branching:]
+                tried += batch.tolist()
+                ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
+                if ok[batch].any():
+                    break
+            idx = np.sort(np.array(tried, dtype=np.int64))
+            children = self.children(problem, x_l[idx], theta[idx], ok[idx], apexes[idx], idx.size)
+            children.more = bool(d["pos"] < order.size or d["ready"])
+            return children
 
-        return self.search_with(problem, propose)
+        return best_first(problem, expand, self.weights, self.n_sequences, self.budget.max_nodes)
+
+
+def weighted_order(p: np.ndarray, rng) -> np.ndarray:
+    """The indices with p > 0 in the order of a weighted draw without replacement (Efraimidis and Spirakis:
+    sort by u^(1/p), u uniform)."""
+    idx = np.flatnonzero(p > 0)
+    keys = np.log(rng.uniform(size=idx.size)) / p[idx]
+    return idx[np.argsort(-keys)]

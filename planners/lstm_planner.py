@@ -1,18 +1,21 @@
 """The learned recurrent planner (paper, section VI): footholds from the CNN+LSTM model, zero ODE calls."""
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from drakeslip import ApexState, Terrain
 from drakeslip.controller import StepLengthController
 
+from .angle_space import EDGE_MARGIN
 from .base import FootstepSequence, Plan, Planner, Problem
+from .lstm_inference import NumpyFootstepModel, softmax
 from .lstm_inputs import WindowEncoding, encode_window
 from .lstm_model import FootstepModel, load_checkpoint
 from .registry import register
+from .search import clear_of_edges
 
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "lstm.pt"
 _MODELS: dict = {}
@@ -27,42 +30,53 @@ def load_model(path=None) -> FootstepModel:
 
 
 class FootstepDistribution:
-    """Runs the model on one perception window. ``mask_ditches`` forbids ditch cells (a foot there is a
-    certain FOOT_COLLISION, a physical constraint rather than a terrain heuristic)."""
+    """Runs the model on one perception window, in numpy (see lstm_inference.py). ``mask_ditches`` forbids
+    ditch cells (a foot there is a certain FOOT_COLLISION, a physical constraint rather than a terrain
+    heuristic)."""
 
     def __init__(self, model: FootstepModel, mask_ditches: bool = True):
-        self.model = model
+        self.model = NumpyFootstepModel(model)
         self.mask_ditches = mask_ditches
 
-    def tensors(self, enc: WindowEncoding):
-        terrain = torch.from_numpy(enc.terrain)[None]
-        apex = torch.from_numpy(enc.apex)[None]
-        s0 = torch.zeros(1, enc.terrain.size)
+    def inputs(self, enc: WindowEncoding):
+        """(terrain, apex, s0, mask) as batch-of-one arrays; mask is None when ditches are allowed."""
+        s0 = np.zeros((1, enc.terrain.size))
         s0[0, enc.s0] = 1.0
-        mask = torch.from_numpy(enc.ditch)[None] if self.mask_ditches else None
-        return terrain, apex, s0, mask
+        mask = enc.ditch[None] if self.mask_ditches else None
+        return enc.terrain[None].astype(np.float64), enc.apex[None].astype(np.float64), s0, mask
 
     def rollout(self, enc: WindowEncoding, n_steps: int, temperature: float = 1.0) -> np.ndarray:
-        terrain, apex, s0, mask = self.tensors(enc)
-        return self.model.rollout(terrain, apex, s0, n_steps, mask, temperature)[0].numpy()
+        terrain, apex, s0, mask = self.inputs(enc)
+        return self.model.rollout(terrain, apex, s0, n_steps, mask, temperature)[0]
 
 
 @register("lstm")
 class LSTMPlanner(Planner):
-    """Footholds = the mode (argmax) of each step's distribution, fed back as the next step's input, until a
-    foothold passes the target (at most ``max_steps``). The controller executes them; the plan holds the
-    first leg angle (from the current apex) and leaves later angles and apexes as NaN, since the model does
-    not predict them."""
+    """Footholds = the mode of each step's distribution, the distribution fed back as the next step's input,
+    until a foothold passes the target (at most ``max_steps``); zero step-map calls. The controller executes
+    them; the plan holds the first leg angle (from the current apex) and leaves later angles and apexes NaN,
+    since the model does not predict them.
+
+    The mode is taken over footholds the hopper can use, on a quarter-cell grid (cell probabilities
+    interpolated between cell centres, so a mode next to a ditch slides away from its edge): ahead of the
+    previous foothold, on solid ground at least ``edge_margin`` from an edge, and, for the first step, reached
+    by the controller inside the friction cone. The paper reports that its mode often failed on exactly these
+    two counts (friction cone, edges); both can be checked without simulating."""
 
     def __init__(self, weights=None, max_steps: int = 12, mask_ditches: bool = True,
-                 controller: StepLengthController | None = None, **budget):
+                 controller: StepLengthController | None = None, edge_margin: float = EDGE_MARGIN,
+                 feedback: str = "distribution", **budget):
         super().__init__(**budget)
+        if feedback not in ("distribution", "mode"):
+            raise ValueError(f"feedback must be 'distribution' or 'mode', got {feedback!r}")
+        self.feedback = feedback
         if not (isinstance(max_steps, int) and max_steps >= 1):
             raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
         self.model = load_model(weights)
         self.net = FootstepDistribution(self.model, mask_ditches)
         self.max_steps = max_steps
         self.controller = controller or StepLengthController.load_default()
+        self.edge_margin = float(edge_margin)
 
     def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0):
         """Per-step probabilities over the window's cells, (n, cells), and the cells' centres x (cells,)."""
@@ -71,16 +85,50 @@ class LSTMPlanner(Planner):
         return self.net.rollout(enc, n, temperature), enc.x_of(np.arange(enc.terrain.size))
 
     def _plan(self, problem: Problem) -> Plan:
-        enc = encode_window(problem.terrain, problem.apex)
-        probs = self.net.rollout(enc, self.max_steps)
-        footholds = enc.x_of(probs.argmax(axis=1))
-        passed = np.flatnonzero(footholds >= problem.target_x)
-        footholds = footholds[:passed[0] + 1] if passed.size else footholds
-        footholds = footholds[footholds < problem.window_end]
-        if footholds.size == 0 or footholds[0] <= problem.apex.x - problem.params.leg_length:
-            return Plan(self.name, False, problem.target_x, message="no plan found: the model's first step "
-                        "is not ahead of the hopper")
+        terrain, params, apex = problem.terrain, problem.params, problem.apex
+        enc = encode_window(terrain, apex)
+        model = self.net.model
+        window, apex_in, prev, mask = self.net.inputs(enc)
+        state = model.initial_state(apex_in)
+        centres = enc.x_of(np.arange(enc.terrain.size))
+        spacing = terrain.cell / 4
+        first = math.ceil((apex.x - params.leg_length - terrain.x0) / spacing - 0.5)
+        last = math.floor((problem.window_end - terrain.x0) / spacing - 0.5)
+        grid = terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
+        usable = (terrain.height_at(grid) > terrain.ditch_height) & clear_of_edges(terrain, grid, self.edge_margin)
+        footholds, behind = [], -math.inf
+        for _ in range(self.max_steps):
+            logits, state = model.step(window, prev, state)
+            p = softmax(logits, mask)
+            score = np.where(usable & (grid > behind), np.interp(grid, centres, p[0]), 0.0)
+            if not footholds:
+                score = self._reachable(apex, grid, score, terrain, params)
+            if not score.any():
+                break
+            footholds.append(behind := float(grid[score.argmax()]))
+            if behind >= problem.target_x:
+                break
+            if self.feedback == "mode":
+                prev = np.zeros_like(p)
+                prev[0, enc.cell_of(behind)] = 1.0
+            else:
+                prev = p
+        if not footholds:
+            return Plan(self.name, False, problem.target_x, message="no plan found: no usable first foothold "
+                        "has probability under the model")
+        footholds = np.array(footholds)
         angles = np.full(footholds.size, np.nan)
-        angles[0] = self.controller.leg_angle(problem.apex, footholds[0], problem.terrain)
+        angles[0] = self.controller.leg_angle(apex, footholds[0], terrain)
         seq = FootstepSequence(footholds, angles, np.full((footholds.size, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])
+
+    def _reachable(self, apex, grid, score, terrain, params, tries: int = 32):
+        """``score`` kept only on the best ``tries`` footholds the controller reaches inside the friction cone."""
+        order = np.argsort(-score)[:tries]
+        order = order[score[order] > 0]
+        kept = np.zeros_like(score)
+        if order.size:
+            theta = self.controller.leg_angles(apex, grid[order], terrain)
+            ok = np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction)
+            kept[order[ok]] = score[order[ok]]
+        return kept

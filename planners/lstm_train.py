@@ -88,7 +88,9 @@ def batch_loss(model: FootstepModel, batch: dict, own_inputs: float = 0.0, gener
 def _batches(data: dict, idx: np.ndarray, batch_size: int, device: str):
     for start in range(0, idx.size, batch_size):
         sel = idx[start:start + batch_size]
-        yield {k: torch.from_numpy(v[sel]).to(device) for k, v in data.items()}
+        batch = {k: v[sel] for k, v in data.items()}
+        batch["steps"] = batch["steps"][:, :max(int((batch["steps"] >= 0).sum(axis=1).max()), 1)]  # drop padding
+        yield {k: torch.from_numpy(v).to(device) for k, v in batch.items()}
 
 
 def evaluate(model: FootstepModel, data: dict, idx: np.ndarray, cfg: TrainConfig) -> dict:

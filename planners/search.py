@@ -18,6 +18,9 @@ from .base import FootstepSequence, Problem
 # Isolation of a child whose neighbour sample (in angle or foothold order) failed and that has no successful
 # sibling on that side: the feasible set ends right next to it, so score it like a wide gap.
 ISOLATION_AT_FAILURE = 0.5
+# A node with untried candidates returns to the queue at its cost plus this, so it is expanded again only
+# once its children's subtrees look worse (in cost units: metres of progress).
+REEXPAND_PENALTY = 0.5
 
 
 @dataclass(frozen=True)
@@ -39,6 +42,7 @@ class Children:
     isolation: np.ndarray   # (k,) D, the spread to the nearest sibling footholds
     ode_calls: int
     beyond: bool = False    # a successful hop from this node lands past the perception window
+    more: bool = False      # the node has candidates left untried: expand it again if the search comes back
 
 
 @dataclass
@@ -175,6 +179,8 @@ def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int,
                     + weights.speed * np.abs(children.apexes[:, 2]) + weights.isolation * children.isolation)
             for i, c in zip(tree.add(node, children, cost), cost.tolist()):
                 heapq.heappush(queue, (c, i))
+        if children.more:  # back in the queue behind its own children (the root: behind everything)
+            heapq.heappush(queue, (tree.cost[node] + REEXPAND_PENALTY, node))
         node = -1
         while queue:
             _, i = heapq.heappop(queue)

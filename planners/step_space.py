@@ -3,6 +3,7 @@ through the low-level controller (paper, section V-C), so every planned step is 
 from __future__ import annotations
 
 import math
+import time
 
 import numpy as np
 
@@ -61,39 +62,61 @@ class StepSpacePlanner(Planner):
         first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
         return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
 
-    def _search(self, problem: Problem, spacing) -> SearchResult:
-        return self.search_with(problem, lambda tree, node: self.candidates(
-            tree.apex[node], problem.terrain, problem.params, spacing))
+    def aim(self, apex, x_l: np.ndarray, terrain, params) -> np.ndarray:
+        """The controller's leg angle to each desired foothold, NaN where the foothold is not admissible: a
+        ditch cell, within ``edge_margin`` of an edge, or reached only outside the friction cone. Telling these
+        apart needs no step-map call."""
+        keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, self.edge_margin)
+        theta = np.full(x_l.size, np.nan)
+        if keep.any():
+            theta[keep] = self.controller.leg_angles(apex, x_l[keep], terrain)
+        theta[~(np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction))] = np.nan
+        return theta
 
-    def search_with(self, problem: Problem, propose) -> SearchResult:
-        """Best-first search whose children at a node are the desired footholds ``propose(tree, node)``
-        (sorted by x), each passed through the controller and the fast step map."""
-        params, terrain = problem.params, problem.terrain
-        limit = math.atan(params.friction)
-        controller = self.controller
+    def search(self, apex, terrain, goal_x, params=None) -> SearchResult:
+        """One search on each grid in turn until one finds a sequence; the result's tree holds every node the
+        last search created."""
+        problem = self.problem(apex, terrain, goal_x, params, time.perf_counter())
+        for spacing in self.spacings:
+            result = self._search(problem, spacing)
+            if result.tree.goals or result.stop == "time":
+                break
+        return result
+
+    def _search(self, problem: Problem, spacing) -> SearchResult:
+        terrain, params = problem.terrain, problem.params
 
         def expand(tree, node) -> Children:
             apex = tree.apex[node]
-            x_l = propose(tree, node)
-            keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, self.edge_margin)
-            theta = np.full(x_l.size, np.nan)
-            if keep.any():
-                theta[keep] = controller.leg_angles(apex, x_l[keep], terrain)
-                keep &= np.abs(np.nan_to_num(theta, nan=np.inf)) < limit
-            ok = keep.copy()
-            apexes = np.zeros((x_l.size, 3))
-            if keep.any():
-                res = step_batch(apex, theta[keep], terrain, params)
-                ok[keep] = (res.ok & (np.abs(res.touchdown_x - x_l[keep]) < self.tolerance)
-                            & (res.next_xdot >= self.min_speed))
-                apexes[keep] = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)
-            inside = x_l < problem.window_end  # hops past the window end the sequence, they are not in it
-            d = isolation(x_l, ok)[inside[ok]]
-            beyond = bool(np.any(ok & ~inside))
-            ok &= inside
-            return Children(theta[ok], x_l[ok], apexes[ok], d, int(keep.sum()), beyond)
+            x_l = self.candidates(apex, terrain, params, spacing)
+            theta = self.aim(apex, x_l, terrain, params)
+            ok, apexes = self.simulate(problem, apex, x_l, theta)
+            return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
 
         return best_first(problem, expand, self.weights, self.n_sequences, self.budget.max_nodes)
+
+    def simulate(self, problem: Problem, apex, x_l: np.ndarray, theta: np.ndarray):
+        """One batched fast step-map call for the admissible (finite ``theta``) desired footholds; returns
+        ``ok`` (the hop succeeds, lands within ``tolerance`` of x_L and keeps ``min_speed``) and the next apexes."""
+        keep = ~np.isnan(theta)
+        ok = np.zeros(x_l.size, dtype=bool)
+        apexes = np.zeros((x_l.size, 3))
+        if keep.any():
+            res = step_batch(apex, theta[keep], problem.terrain, problem.params)
+            ok[keep] = (res.ok & (np.abs(res.touchdown_x - x_l[keep]) < self.tolerance)
+                        & (res.next_xdot >= self.min_speed))
+            apexes[keep] = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)
+        return ok, apexes
+
+    @staticmethod
+    def children(problem: Problem, x_l, theta, ok, apexes, ode_calls: int) -> Children:
+        """The successful candidates (sorted by x_l) as the node's children; a hop past the window ends the
+        sequence rather than joining it."""
+        inside = x_l < problem.window_end
+        d = isolation(x_l, ok)[inside[ok]]
+        beyond = bool(np.any(ok & ~inside))
+        ok = ok & inside
+        return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
 
     def _plan(self, problem: Problem) -> Plan:
         self.controller.check_params(problem.params)

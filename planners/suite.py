@@ -68,7 +68,8 @@ def save_suite(suite: Suite, path) -> None:
         json.dump(suite.to_dict(), f)
 
 
-def _number(value, where: str, positive: bool = False) -> float:
+def checked_number(value, where: str, positive: bool = False) -> float:
+    """``value`` as a float if it is a finite number (and positive if asked); else ValueError naming ``where``."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
             or (positive and value <= 0):
         kind = "a positive finite number" if positive else "a finite number"
@@ -76,7 +77,8 @@ def _number(value, where: str, positive: bool = False) -> float:
     return float(value)
 
 
-def _field(d, key, where):
+def required_field(d, key, where):
+    """``d[key]``, or a ValueError naming ``where`` when d is not an object or lacks the key (for JSON files)."""
     if not isinstance(d, dict):
         raise ValueError(f"{where} must be an object, got {type(d).__name__}")
     if key not in d:
@@ -86,35 +88,35 @@ def _field(d, key, where):
 
 def suite_from_dict(d, source: str = "suite") -> Suite:
     """Check every field of a suite document; a bad one raises ValueError naming it (e.g. cases[3].apex.z)."""
-    fmt = _field(d, "format", source)
+    fmt = required_field(d, "format", source)
     if fmt != SUITE_FORMAT:
         raise ValueError(f"{source}: format must be {SUITE_FORMAT!r}, got {fmt!r}")
-    name = _field(d, "name", source)
+    name = required_field(d, "name", source)
     if not isinstance(name, str):
         raise ValueError(f"{source}: name must be a string, got {name!r}")
-    goal_x = _number(_field(d, "goal_x", source), f"{source}: goal_x")
-    friction = _number(_field(d, "friction", source), f"{source}: friction", positive=True)
-    raw_cases = _field(d, "cases", source)
+    goal_x = checked_number(required_field(d, "goal_x", source), f"{source}: goal_x")
+    friction = checked_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
+    raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
     cases, ids = [], set()
     for i, c in enumerate(raw_cases):
         where = f"{source}: cases[{i}]"
-        case_id = _field(c, "id", where)
+        case_id = required_field(c, "id", where)
         if not isinstance(case_id, str) or case_id in ids:
             raise ValueError(f"{where}.id must be a unique string, got {case_id!r}")
         ids.add(case_id)
-        t = _field(c, "terrain", where)
-        x0 = _number(_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
-        cell = _number(_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
-        heights = _field(t, "heights", f"{where}.terrain")
+        t = required_field(c, "terrain", where)
+        x0 = checked_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
+        cell = checked_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
+        heights = required_field(t, "heights", f"{where}.terrain")
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
         for j, h in enumerate(heights):
-            _number(h, f"{where}.terrain.heights[{j}]")
+            checked_number(h, f"{where}.terrain.heights[{j}]")
         terrain = Terrain(heights, cell=cell, x0=x0)
-        a = _field(c, "apex", where)
-        apex = ApexState(*(_number(_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
+        a = required_field(c, "apex", where)
+        apex = ApexState(*(checked_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:

@@ -1,4 +1,5 @@
-"""pytest-benchmark: one plan of each planner on a ditch terrain from the committed suite's kind."""
+"""pytest-benchmark: one plan of each planner on a ditch terrain from the committed suite's kind, and one
+training step of the footstep model."""
 import pytest
 
 import planners
@@ -16,11 +17,38 @@ def controller():
     return StepLengthController.load_default()
 
 
-@pytest.mark.parametrize("name", ["heuristic", "angle", "step"])
+@pytest.mark.parametrize("name", ["heuristic", "angle", "step", "lstm", "lstm-guided"])
 def test_bench_one_plan(benchmark, controller, name):
-    planner = planners.make(name, **({"controller": controller} if name == "step" else {}))
+    planner = planners.make(name, **({"controller": controller} if planners.takes(name, "controller") else {}))
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=5 if name != "heuristic" else 50,
                               warmup_rounds=1)
     assert plan.success, plan.message
     benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
                                 footholds=len(plan.footholds))
+
+
+def test_bench_one_training_step(benchmark):
+    """One optimizer step of the footstep model on a batch of 256 sequences of 12 steps (the real loss path,
+    with the share of sequences fed the model's own distributions)."""
+    import torch
+
+    from planners.lstm_model import FootstepModel
+    from planners.lstm_train import batch_loss
+
+    torch.manual_seed(0)
+    model = FootstepModel()
+    opt = torch.optim.AdamW(model.parameters(), lr=1e-3)
+    n = model.config.n_cells
+    batch = {"terrain": torch.rand(256, n) - 0.5, "apex": torch.rand(256, 3), "s0": torch.full((256,), 30),
+             "steps": torch.randint(31, n, (256, 12))}
+
+    def step():
+        loss = batch_loss(model, batch, own_inputs=0.3)[0]
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        opt.step()
+        return loss.item()
+
+    first = step()
+    benchmark.pedantic(step, rounds=3, warmup_rounds=0)
+    assert step() < first  # it trains

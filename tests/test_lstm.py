@@ -6,6 +6,7 @@ import torch
 
 import drakeslip as ds
 from planners.dataset import DatasetConfig, count_sequences, pending_shards, shard_path, write_manifest, write_shard
+from planners.lstm_inference import NumpyFootstepModel
 from planners.lstm_inputs import encode_window
 from planners.lstm_model import FootstepModel, ModelConfig, load_checkpoint
 from planners.lstm_train import TrainConfig, batch_loss, load_dataset, one_hot_inputs, train
@@ -35,6 +36,21 @@ def test_rollout_is_a_distribution_and_respects_the_mask():
     assert probs.shape == (1, 5, n)
     assert torch.allclose(probs.sum(-1), torch.ones(1, 5))
     assert probs[0, :, 40:60].max() == 0
+
+
+def test_numpy_inference_matches_torch():
+    torch.manual_seed(1)
+    model = FootstepModel(ModelConfig()).eval()
+    terrain, apex = torch.rand(3, 110) - 0.5, torch.rand(3, 3)
+    s0 = torch.zeros(3, 110)
+    s0[:, 30] = 1.0
+    mask = torch.zeros(3, 110, dtype=torch.bool)
+    mask[:, 40:45] = True
+    expected = model.rollout(terrain, apex, s0, 5, mask, temperature=1.5).numpy()
+    got = NumpyFootstepModel(model).rollout(terrain.double().numpy(), apex.double().numpy(), s0.double().numpy(),
+                                            5, mask.numpy(), temperature=1.5)
+    assert np.abs(got - expected).max() < 1e-5
+    assert np.all(got[:, :, 40:45] == 0.0)
 
 
 def test_padding_does_not_change_the_loss():
@@ -110,6 +126,18 @@ def test_dataset_sequences_are_valid(tiny_dataset):
     assert np.all(firsts >= 20)  # the first foothold is near or ahead of the body, never far behind
 
 
+def test_step_space_sequences_move_forward_and_bad_configs_are_refused():
+    from planners.dataset import instance_sequences
+
+    cfg = DatasetConfig(planner="step", min_steps=3, n_terrains=1, apexes_per_terrain=2, max_nodes=200, seed=4)
+    rows = [s[s >= 0] for i in range(cfg.n_instances) for s in instance_sequences(cfg, i)["steps"]]
+    assert rows and all(r.size >= 3 and np.all(np.diff(r) >= 0) for r in rows)
+    with pytest.raises(ValueError, match="planner"):
+        DatasetConfig(planner="dijkstra")
+    with pytest.raises(ValueError, match="speed_range"):
+        DatasetConfig(speed_range=(2.0, 1.0))
+
+
 def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     cfg = TrainConfig(data=tiny_dataset, out=str(tmp_path / "lstm.pt"), checkpoint=str(tmp_path / "ck.pt"),
                       epochs=2, batch_size=32, seed=0)
@@ -129,3 +157,29 @@ def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     probs, xs = planner.distributions((0.0, 0.75, 1.5), terrain, 4)
     assert probs.shape == (4, 110) and xs.shape == (110,)
     np.testing.assert_allclose(probs.sum(1), 1.0, rtol=1e-5)
+
+
+def test_learned_planners_with_the_committed_weights():
+    """The committed model plans a ditch terrain: LSTM-guided within the controller's reach and with far fewer
+    step-map calls than Step-space, deterministically; the LSTM's footholds are usable (ahead of each other,
+    off edges, the first inside the friction cone)."""
+    import math
+
+    import planners
+    from planners.evaluation import perceived
+    from planners.search import clear_of_edges
+
+    terrain, apex, params = perceived(ds.ditch_world(1003), 0.0), (0.0, 0.9, 2.0), ds.SlipParams(friction=0.8)
+    guided = planners.make("lstm-guided")
+    plan = guided.plan(apex, terrain, 10.0, params)
+    assert plan.success, plan.message
+    assert plan.ode_calls < planners.make("step").plan(apex, terrain, 10.0, params).ode_calls
+    assert guided.plan(apex, terrain, 10.0, params).footholds.tolist() == plan.footholds.tolist()
+    reached = ds.step_batch(apex, plan.leg_angles[:1], terrain, params)
+    assert reached.ok[0] and abs(reached.touchdown_x[0] - plan.footholds[0]) < 0.02
+
+    lstm = planners.make("lstm").plan(apex, terrain, 10.0, params)
+    assert lstm.success and lstm.ode_calls == 0
+    assert np.all(np.diff(lstm.footholds) > 0)
+    assert np.all(clear_of_edges(terrain, lstm.footholds, 0.02))
+    assert abs(lstm.leg_angles[0]) < math.atan(params.friction)

@@ -1,0 +1,96 @@
+"""Monte Carlo robustness of a plan (verification.robustness): deterministic under a seed, certain without
+noise for a certified plan, falling with large noise, and confirmed on Drake for the same draws."""
+import importlib.util
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import drakeslip as ds
+import planners
+from drakeslip.controller import StepLengthController
+from planners.evaluation import perceived
+from planners.plan_io import PlanRecord
+from planners.suite import make_suite
+from verification.robustness import confirm_on_drake, success_probability, wilson_interval
+
+ROOT = Path(__file__).resolve().parents[1]
+NOISY = dict(apex_noise=(0.01, 0.01, 0.05), angle_noise=0.02)
+
+
+@pytest.fixture(scope="module")
+def controller():
+    return StepLengthController.load_default()
+
+
+@pytest.fixture(scope="module")
+def record(controller):
+    """The Step-space plan for step-2000-v2.5-z1 (4 hops), certified in tests/test_plan_check.py."""
+    suite = make_suite("step", seed=2000, n_terrains=1)
+    case = suite.cases[7]
+    params = ds.SlipParams(friction=suite.friction)
+    plan = planners.make("step", controller=controller).plan(case.apex, perceived(case.terrain, case.apex.x),
+                                                             suite.goal_x, params)
+    return PlanRecord.from_plan(plan, case.apex, case.terrain, suite.goal_x, params)
+
+
+def test_wilson_interval():
+    assert wilson_interval(0, 10) == pytest.approx((0.0, 0.27753), abs=1e-5)
+    assert wilson_interval(10, 10) == pytest.approx((0.72247, 1.0), abs=1e-5)
+    assert wilson_interval(5, 10) == pytest.approx((0.23659, 0.76341), abs=1e-5)
+    with pytest.raises(ValueError, match="n=0"):
+        wilson_interval(0, 0)
+
+
+def test_deterministic_under_a_seed(record, controller):
+    a = success_probability(record, 200, seed=3, controller=controller, **NOISY)
+    b = success_probability(record, 200, seed=3, controller=controller, **NOISY)
+    c = success_probability(record, 200, seed=4, controller=controller, **NOISY)
+    np.testing.assert_array_equal(a.start, b.start)
+    np.testing.assert_array_equal(a.failures, b.failures)
+    np.testing.assert_array_equal(a.failed_hops, b.failed_hops)
+    assert not np.array_equal(a.start, c.start)
+
+
+def test_certain_without_noise_and_falls_with_large_noise(record, controller):
+    clean = success_probability(record, 500, seed=0, controller=controller)
+    assert clean.rate == 1.0 and clean.interval[0] > 0.99 and clean.failure_counts() == {}
+    noisy = success_probability(record, 500, seed=0, controller=controller, **NOISY)
+    assert noisy.rate < 0.5 and noisy.interval[1] < 0.5
+    assert sum(noisy.failure_counts().values()) == noisy.n - noisy.successes
+    assert np.all((noisy.failed_hops >= 0) == (noisy.failures != 0))
+    assert "Wilson interval" in noisy.format()
+
+
+def test_drake_confirms_the_same_draws(record, controller):
+    clean = success_probability(record, 10, seed=0, controller=controller)
+    confirmation = confirm_on_drake(clean, 1, controller=controller)
+    assert confirmation.n == 1 and confirmation.agreement == 1.0 and confirmation.drake.tolist() == [0]
+    noisy = success_probability(record, 10, seed=1, controller=controller, **NOISY)
+    confirmation = confirm_on_drake(noisy, 2, controller=controller)
+    np.testing.assert_array_equal(confirmation.fast, noisy.failures[:2])
+    assert confirmation.agreement == 1 - len(confirmation.disagreements) / 2
+
+
+@pytest.mark.parametrize("call, message", [
+    (lambda r: success_probability(r, 0), "n must be"),
+    (lambda r: success_probability(r, 10, apex_noise=(0.1, -1, 0)), "non-negative"),
+    (lambda r: success_probability(r, 10, angle_noise=float("nan")), "angle_noise = nan"),
+    (lambda r: success_probability(r, 10, backend="gpu"), "backend"),
+    (lambda r: confirm_on_drake(success_probability(r, 5), 6), r"n_small must be an integer in \[1, 5\]"),
+])
+def test_bad_arguments_are_named(record, call, message):
+    with pytest.raises(ValueError, match=message):
+        call(record)
+
+
+def test_cli(tmp_path, record, capsys):
+    spec = importlib.util.spec_from_file_location("robustness_cli", ROOT / "examples" / "robustness.py")
+    cli = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(cli)
+    record.save(tmp_path / "plan.json")
+    assert cli.main(["--plan", str(tmp_path / "plan.json"), "--samples", "50", "--seed", "1",
+                     "--apex-noise", "0,0,0", "--angle-noise", "0"]) == 0
+    assert "success rate 1.0000 (50/50)" in capsys.readouterr().out
+    (tmp_path / "bad.json").write_text("[]")
+    assert cli.main(["--plan", str(tmp_path / "bad.json")]) == 2
