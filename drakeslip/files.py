@@ -1,6 +1,8 @@
-"""Atomic file writes, so a killed job or a reader never sees a half-written result."""
+"""Atomic file writes, so a killed job or a reader never sees a half-written result, and the JSON-lines
+caches that let long jobs resume."""
 from __future__ import annotations
 
+import json
 import os
 import tempfile
 from contextlib import contextmanager
@@ -22,3 +24,25 @@ def atomic_write(path, mode: str = "wb"):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
+
+
+def read_jsonl_cache(path, key_of, value_of) -> dict:
+    """{key_of(entry): value_of(entry)} over the JSON lines of ``path`` (empty if it does not exist). A resumable
+    job appends one line per finished item; a line cut short by a kill, or one missing a field, is skipped."""
+    cache = {}
+    path = Path(path)
+    if path.exists():
+        for line in path.read_text().splitlines():
+            try:
+                entry = json.loads(line)
+                cache[key_of(entry)] = value_of(entry)
+            except (json.JSONDecodeError, KeyError, TypeError):
+                continue
+    return cache
+
+
+def append_jsonl(sink, entry) -> None:
+    """Append one entry to an open JSON-lines cache and make it durable before going on."""
+    sink.write(json.dumps(entry) + "\n")
+    sink.flush()
+    os.fsync(sink.fileno())

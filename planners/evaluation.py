@@ -14,7 +14,7 @@ from pathlib import Path
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
-from drakeslip.files import atomic_write
+from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
 
 from .registry import make, takes
 from .suite import Case, Suite
@@ -174,16 +174,8 @@ def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, c
 
 
 def load_cache(path: Path) -> dict:
-    """{(fingerprint, case id): result} from a JSON-lines cache; a line cut short by a kill is skipped."""
-    cache = {}
-    if path.exists():
-        for line in path.read_text().splitlines():
-            try:
-                entry = json.loads(line)
-                cache[(entry["key"], entry["result"]["id"])] = entry["result"]
-            except (json.JSONDecodeError, KeyError, TypeError):
-                continue
-    return cache
+    """{(fingerprint, case id): result} from the JSON-lines cache."""
+    return read_jsonl_cache(path, lambda e: (e["key"], e["result"]["id"]), lambda e: e["result"])
 
 
 def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs: int = 1,
@@ -211,9 +203,7 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
         def finish(name, result):
             done[name][result["id"]] = result
             if sink:
-                sink.write(json.dumps({"key": keys[name], "result": result}) + "\n")
-                sink.flush()
-                os.fsync(sink.fileno())
+                append_jsonl(sink, {"key": keys[name], "result": result})
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
 

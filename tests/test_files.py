@@ -12,3 +12,15 @@ def test_atomic_write_replaces_only_on_success(tmp_path):
             raise RuntimeError("killed")
     assert path.read_text() == "first"
     assert os.listdir(path.parent) == ["result.json"]
+
+
+def test_jsonl_cache_skips_a_line_cut_short_by_a_kill(tmp_path):
+    from drakeslip.files import append_jsonl, read_jsonl_cache
+
+    path = tmp_path / "cache.jsonl"
+    with open(path, "a") as sink:
+        append_jsonl(sink, {"key": "a", "result": 1})
+        append_jsonl(sink, {"key": "b"})            # missing a field
+        sink.write('{"key": "c", "res')             # killed mid-write
+    assert read_jsonl_cache(path, lambda e: e["key"], lambda e: e["result"]) == {"a": 1}
+    assert read_jsonl_cache(tmp_path / "none.jsonl", lambda e: e, lambda e: e) == {}
