@@ -1,0 +1,147 @@
+"""Trajectory optimization from different seeds (issue 5): converged / Drake-verified rates, solve time, iterations.
+
+    python examples/make_suites.py --families step --seed 7000 --out-dir out/fresh
+    python examples/trajopt_warmstart.py --suite out/fresh/step-7000.json --every 7 \\
+        --seeds cold,heuristic,step,lstm --out out/trajopt-step-7000.json
+
+Each case is one planning query, the perception-window problem of the case's start apex toward the suite's goal
+(the target is 1 m short of the window's far edge, as for every planner). Each seed proposes footholds on the
+window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/trajopt.py); the optimized leg
+angles are simulated open loop on the Drake hybrid simulator on the true terrain. ``verified`` = the solver
+converged and Drake completes all N hops with no failure, past the target. Finished cases are cached in
+OUT.cases.jsonl (keyed by the optimizer's source, its settings and the LSTM checkpoint), so a killed run
+continues where it stopped (--no-resume starts over).
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # small matrices: threaded BLAS only contends for the cores
+
+import argparse
+import hashlib
+import json
+import shlex
+import statistics
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+from drakeslip import SlipParams
+from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
+from planners.evaluation import perceived
+from planners.suite import load_suite
+from planners.trajopt import SEEDS, TrajoptConfig, make_problem, optimize
+
+FORMAT = "drakeslip-trajopt-warmstart/1"
+
+
+def summarize(cases: list) -> dict:
+    """One seed's block: rates over all cases; solve time and iterations over the cases that reached the solver."""
+    solved = [c for c in cases if c.get("solve_time_s") is not None]
+    iters = [c["iterations"] for c in solved if c.get("iterations") is not None]
+    n = len(cases)
+    return {"cases_n": n,
+            "converged_rate": sum(c["converged"] for c in cases) / n if n else 0.0,
+            "verified_rate": sum(c["verified"] for c in cases) / n if n else 0.0,
+            "drake_ok_rate": sum(bool(c.get("drake_ok")) for c in cases) / n if n else 0.0,
+            "seed_fast_ok_rate": sum(bool(c.get("seed_fast_ok")) for c in cases) / n if n else 0.0,
+            "seed_errors": sum(c.get("error") is not None for c in cases),
+            "solve_time_median_s": statistics.median(c["solve_time_s"] for c in solved) if solved else None,
+            "solve_time_mean_s": statistics.fmean(c["solve_time_s"] for c in solved) if solved else None,
+            "iterations_median": statistics.median(iters) if iters else None,
+            "hops_median": statistics.median(c["hops"] for c in solved) if solved else None,
+            "cases": cases}
+
+
+def table(results: dict) -> str:
+    fmt = lambda v, spec: "-" if v is None else format(v, spec)
+    rows = [f"Trajectory optimization on {results['suite']} ({results['cases_n']} cases)",
+            f"{'seed':<10} {'converged %':>11} {'verified %':>10} {'drake ok %':>10} {'seed ok %':>9} "
+            f"{'no seed':>7} {'solve median':>12} {'iters median':>12} {'hops median':>11}"]
+    for name, r in results["seeds"].items():
+        rows.append(f"{name:<10} {100 * r['converged_rate']:>11.1f} {100 * r['verified_rate']:>10.1f} "
+                    f"{100 * r['drake_ok_rate']:>10.1f} {100 * r['seed_fast_ok_rate']:>9.1f} {r['seed_errors']:>7d} "
+                    f"{fmt(r['solve_time_median_s'], '.2f'):>11}s {fmt(r['iterations_median'], 'g'):>12} "
+                    f"{fmt(r['hops_median'], 'g'):>11}")
+    rows.append("verified: converged and Drake completes the hops open loop past the target; drake ok: Drake "
+                "alone (converged or not); seed ok: the seed's own footholds execute on the fast step map")
+    return "\n".join(rows)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
+    ap.add_argument("--cases", type=int, default=None, help="how many cases (default: all selected)")
+    ap.add_argument("--every", type=int, default=1,
+                    help="take every K-th case of the suite (suites list 10 starts per terrain: K = 7 spreads "
+                         "the cases over every terrain and every start)")
+    ap.add_argument("--seeds", default="cold,heuristic,step,lstm", help=f"comma-separated, of {list(SEEDS)}")
+    ap.add_argument("--out", required=True, help="results JSON (written atomically)")
+    ap.add_argument("--knots", type=int, default=TrajoptConfig.knots, help="stance knots per hop minus one")
+    ap.add_argument("--collocation", default=TrajoptConfig.collocation, choices=("chebyshev", "hermite-simpson"))
+    ap.add_argument("--max-hops", type=int, default=TrajoptConfig.max_hops)
+    ap.add_argument("--solver", default="snopt", choices=("snopt", "ipopt"))
+    ap.add_argument("--lstm-weights", default=None, help="checkpoint for the lstm seed (default: the committed one)")
+    ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    args = ap.parse_args(argv)
+    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
+
+    seeds = [s for s in args.seeds.split(",") if s]
+    unknown = [s for s in seeds if s not in SEEDS]
+    if unknown or not seeds:
+        ap.error(f"unknown seed(s) {unknown}; known seeds: {', '.join(SEEDS)}")
+    if args.every < 1 or (args.cases is not None and args.cases < 1):
+        ap.error("--every and --cases must be positive")
+    config = TrajoptConfig(knots=args.knots, collocation=args.collocation, max_hops=args.max_hops,
+                           solver=args.solver, lstm_weights=args.lstm_weights)
+    suite = load_suite(args.suite)
+    cases = list(suite.cases[::args.every])[:args.cases]
+    params = SlipParams(friction=suite.friction)
+
+    weights_stamp = ""
+    if args.lstm_weights:  # a retrained checkpoint at the same path must not reuse cached lstm cases
+        st = Path(args.lstm_weights).stat()
+        weights_stamp = f"{st.st_size}:{st.st_mtime_ns}"
+    import planners.trajopt as trajopt_module  # a changed optimizer must not reuse cached cases either
+
+    code = hashlib.sha256(Path(trajopt_module.__file__).read_bytes()).hexdigest()[:12]
+    setup = json.dumps([asdict(config), weights_stamp, code, suite.goal_x, suite.friction], sort_keys=True,
+                       default=str)
+    key = lambda seed, case: hashlib.sha256(
+        json.dumps([setup, seed, case.id, case.terrain.to_dict(), list(case.apex)]).encode()).hexdigest()[:20]
+    cache_path = Path(args.out + ".cases.jsonl")
+    if args.no_resume and cache_path.exists():
+        cache_path.unlink()
+    cache = read_jsonl_cache(cache_path, lambda e: e["key"], lambda e: e["record"])
+
+    from tqdm import tqdm
+
+    done = {s: [] for s in seeds}
+    bar = tqdm(total=len(cases) * len(seeds), disable=args.quiet, unit="solve", desc=suite.name)
+    with open(cache_path, "a") as sink:
+        for case in cases:  # case-major: every seed sees the same cases at any point of a partial run
+            problem = make_problem(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params)
+            for seed in seeds:
+                k = key(seed, case)
+                record = cache.get(k)
+                if record is None:
+                    record = {"id": case.id, **optimize(problem, seed, config, true_terrain=case.terrain)}
+                    append_jsonl(sink, {"key": k, "record": record})
+                done[seed].append(record)
+                bar.update(1)
+                bar.set_postfix({s: f"{sum(r['verified'] for r in d)}/{len(d)}" for s, d in done.items()})
+    bar.close()
+    results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
+               "every": args.every, "config": asdict(config),
+               "seeds": {s: summarize(done[s]) for s in seeds}}
+    with atomic_write(args.out, "w") as f:
+        json.dump(results, f, indent=1)
+    print(table(results))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,170 @@
+"""The multi-hop trajectory optimization (planners/trajopt.py): its equations agree with the simulators, it
+converges and verifies on flat ground, and bad seeds are rejected clearly."""
+import math
+
+import numpy as np
+import pytest
+
+from drakeslip import SlipParams, Terrain, step_batch
+from drakeslip import dynamics as dyn
+from drakeslip.terrain import DITCH_HEIGHT
+from planners import trajopt as T
+
+PARAMS = SlipParams()
+APEX = (0.0, 1.0, 2.0)
+
+
+def executed_footholds(apex, angles, terrain, params=PARAMS):
+    """Footholds and apexes the fast step map reaches with these leg angles (all hops must succeed)."""
+    footholds, apexes = [], [tuple(apex)]
+    for theta in angles:
+        r = step_batch(apexes[-1], [theta], terrain, params).result(0)
+        assert r.ok, r.failure
+        footholds.append(r.touchdown_x)
+        apexes.append(tuple(r.next_apex))
+    return np.array(footholds), np.array(apexes)
+
+
+@pytest.fixture(scope="module")
+def flat_problem():
+    terrain = Terrain.flat()
+    return T.make_problem(APEX, terrain, 3.0, PARAMS)
+
+
+def test_generic_equations_are_the_compiled_ones():
+    """The optimizer evaluates the very source numba compiled: same numbers, on floats and on Duals."""
+    p = PARAMS.as_array()
+    state = (0.12, 0.43, 1.7, -0.9, 0.02, 0.0)
+    assert T.generic(dyn.stance_derivatives)(*state, p) == pytest.approx(dyn.stance_derivatives(*state, p), rel=1e-15)
+    assert T.generic(dyn.foot_position)(0.3, 1.0, 0.25, p) == pytest.approx(dyn.foot_position(0.3, 1.0, 0.25, p))
+    v = T.Dual.variables(np.array(state))
+    out = T.generic(dyn.stance_derivatives)(*v, p)
+    assert [float(o.val) for o in out] == pytest.approx(list(dyn.stance_derivatives(*state, p)), rel=1e-15)
+    # forward-mode derivatives against central differences
+    h = 1e-6
+    for j in range(6):
+        up, down = list(state), list(state)
+        up[j] += h
+        down[j] -= h
+        fd = (np.array(dyn.stance_derivatives(*up, p)) - np.array(dyn.stance_derivatives(*down, p))) / (2 * h)
+        assert np.array([o.der[j] for o in out]) == pytest.approx(fd, rel=1e-6, abs=1e-6)
+
+
+def test_constraints_agree_with_the_fast_step_map_on_a_simulated_seed():
+    """Footholds the fast step map reaches, executed by the controller into an initial guess: every equality
+    of the program holds (dynamics defects ~0), the guess reproduces the step map's apexes, and a perturbed
+    stance breaks the dynamics defect."""
+    terrain = Terrain.flat()
+    footholds, apexes = executed_footholds(APEX, [0.25, 0.27, 0.27], terrain)
+    problem = T.make_problem(APEX, terrain, apexes[-1][0] - 0.1, PARAMS)
+    config = T.TrajoptConfig()
+    segs = T.assign_segments(terrain, footholds, config.edge_margin, problem.window_end)
+    guess = T.build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
+    assert guess.fast_ok, guess.fast_failure
+    assert guess.footholds == pytest.approx(footholds, abs=1e-6)  # the controller lands where the seed says
+    assert guess.apexes == pytest.approx(apexes, abs=1e-9)
+    program = T.SlipTrajopt(APEX, terrain, segs, PARAMS, problem.target_x, config)
+    x = program.guess_vector(guess)
+    v = program.violations(x)
+    assert v["dynamics"] < 1e-6, v          # Chebyshev collocation on the integrated stance
+    assert v["touchdown"] < 1e-12 and v["foot_on_terrain"] < 1e-12 and v["liftoff"] < 1e-9, v
+    assert v["apex"] < 1e-6, v              # liftoff -> apex in closed form vs the step map's apex
+    assert v["clearance"] == 0 and v["friction"] == 0 and v["leg_length"] == 0, v
+    # the defect really measures the dynamics: move one mid-stance knot by 1 mm
+    i = program.prog.FindDecisionVariableIndices([program.S[1][10, 1]])[0]
+    x[i] += 1e-3
+    assert program.violations(x)["dynamics"] > 1e-3
+
+
+@pytest.mark.parametrize("collocation", T.COLLOCATIONS)
+def test_collocation_jacobian_matches_its_declared_sparsity_and_finite_differences(collocation):
+    from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
+
+    terrain = Terrain.flat()
+    footholds, _ = executed_footholds(APEX, [0.25, 0.27], terrain)
+    config = T.TrajoptConfig(collocation=collocation, knots=8)
+    segs = T.assign_segments(terrain, footholds, config.edge_margin)
+    guess = T.build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
+    program = T.SlipTrajopt(APEX, terrain, segs, PARAMS, config=config)
+    x = program.guess_vector(guess)
+    binding = program.groups["dynamics"][1]
+    idx = np.array(program.prog.FindDecisionVariableIndices(binding.variables()))
+    c = binding.evaluator()
+    jac = ExtractGradient(c.Eval(InitializeAutoDiff(x[idx])))
+    allowed = np.zeros_like(jac, dtype=bool)
+    for r, col in c.gradient_sparsity_pattern():
+        allowed[r, col] = True
+    assert np.all(jac[~allowed] == 0)
+    h = 1e-7
+    fd = np.stack([(c.Eval(x[idx] + h * e) - c.Eval(x[idx] - h * e)) / (2 * h) for e in np.eye(idx.size)], axis=1)
+    assert jac == pytest.approx(fd, abs=1e-5 * max(1.0, np.abs(fd).max()))
+
+
+def test_flat_ground_cold_start_converges_and_verifies_on_drake(flat_problem):
+    record = T.optimize(flat_problem, "cold")
+    assert record["error"] is None
+    assert record["converged"], record["status"]
+    assert record["verified"], record["verification"]
+    assert record["iterations"] is not None and record["iterations"] > 0
+    assert record["solve_time_s"] > 0
+    # Drake lands where the optimizer planned (open loop, 3 hops: the transcription is accurate)
+    assert np.array(record["verification"]["footholds"]) == pytest.approx(record["footholds"], abs=1e-5)
+    assert record["apexes"][-1][0] >= flat_problem.target_x
+
+
+def test_a_foothold_on_a_ditch_segment_is_rejected_clearly():
+    heights = np.zeros(230)
+    heights[40:45] = DITCH_HEIGHT            # a ditch over [1.0, 1.5)
+    terrain = Terrain(heights)
+    with pytest.raises(T.TrajoptError, match=r"foothold 1 \(x=1\.200 m\) lies on a ditch segment \[1\.00, 1\.50\)"):
+        T.assign_segments(terrain, [0.5, 1.2, 2.0], 0.03)
+    problem = T.make_problem(APEX, terrain, 3.0, PARAMS)
+    record = T.optimize(problem, np.array([0.5, 1.2, 2.0]))
+    assert not record["converged"] and "ditch" in record["error"]
+    ditch = T.segment_of(terrain, 1.2)
+    with pytest.raises(T.TrajoptError, match="ditch"):
+        T.SlipTrajopt(APEX, terrain, [T.segment_of(terrain, 0.5), ditch], PARAMS)
+
+
+def test_a_segment_too_short_for_the_edge_margin_is_rejected():
+    heights = np.zeros(230)
+    heights[40] = 0.1                        # one 10 cm cell
+    with pytest.raises(T.TrajoptError, match="too short"):
+        T.assign_segments(Terrain(heights), [1.05], 0.06)
+
+
+def test_unknown_seed_errors_clearly(flat_problem):
+    with pytest.raises(ValueError, match="unknown seed 'astar'; known seeds: cold, heuristic, step, lstm"):
+        T.seed_footholds("astar", flat_problem)
+    with pytest.raises(ValueError, match="unknown seed 'astar'"):
+        T.optimize(flat_problem, "astar")
+    with pytest.raises(ValueError, match="unknown seed"):
+        T.TrajoptPlanner(seed="astar")
+
+
+def test_segments_and_cold_seed_cover_the_problem(flat_problem):
+    terrain = Terrain(np.r_[np.zeros(40), np.full(10, 0.2), np.zeros(180)])
+    segs = T.segments(terrain)
+    assert [(s.lo, s.hi, s.height) for s in segs] == [(-math.inf, pytest.approx(1.0), 0.0),
+                                                      (pytest.approx(1.0), pytest.approx(2.0), 0.2),
+                                                      (pytest.approx(2.0), math.inf, 0.0)]
+    cold = T.cold_footholds(flat_problem)
+    steps = np.diff(cold)
+    assert np.all(steps > 0) and steps == pytest.approx(np.full(steps.size, steps[0]))
+    assert cold[-1] >= flat_problem.target_x
+
+
+def test_config_checks():
+    with pytest.raises(ValueError, match="collocation"):
+        T.TrajoptConfig(collocation="trapezoid")
+    with pytest.raises(ValueError, match="solver"):
+        T.TrajoptConfig(solver="gurobi")
+
+
+def test_as_a_planner_it_returns_the_optimized_plan():
+    import planners
+
+    plan = planners.make("trajopt", seed="cold").plan(APEX, Terrain.flat(), 3.0, PARAMS)
+    assert plan.success, plan.message
+    assert len(plan.footholds) == len(plan.leg_angles) == len(plan.apexes) >= 2
+    assert np.all(np.isfinite(plan.leg_angles)) and plan.apexes[-1][0] >= plan.target_x
