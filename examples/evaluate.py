@@ -4,7 +4,11 @@
 
 Each planning call sees the 8 m / 3 m perception window; the first 3 footholds are executed by the
 controller on the Drake simulator, then it replans. Finished cases are cached in OUT.cases.jsonl, so a
-killed run continues where it stopped (--no-resume starts over).
+killed run continues where it stopped (--no-resume starts over). Two settings of one planner run side by side
+as NAME@VARIANT, with their options keyed by that label:
+
+    python examples/evaluate.py --suite suites/ditch.json --planners step,lstm-guided,lstm-guided@lazy \
+        --options '{"lstm-guided@lazy": {"lazy": true}}' --backend fast --jobs 2 --out out/lazy.json
 """
 from __future__ import annotations
 
@@ -15,14 +19,14 @@ import sys
 from pathlib import Path
 
 from planners import available
-from planners.evaluation import EvalConfig, evaluate, table, write_json
+from planners.evaluation import EvalConfig, evaluate, planner_name, table, write_json
 from planners.suite import load_suite
 
 
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--planners", default="heuristic,angle,step", help=f"comma-separated, of {available()}")
+    ap.add_argument("--planners", default="heuristic,angle,step", help=f"comma-separated, of {available()}, each optionally NAME@VARIANT")
     ap.add_argument("--cases", type=int, default=None, help="only the first N cases")
     ap.add_argument("--out", required=True, help="results JSON (written atomically)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
@@ -40,12 +44,12 @@ def main(argv=None):
     print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
     names = [n for n in args.planners.split(",") if n]
-    unknown = [n for n in names if n not in available()]
+    unknown = [n for n in names if planner_name(n) not in available()]
     if unknown:
         ap.error(f"unknown planner(s) {unknown}; known planners: {', '.join(available())}")
     options = json.loads(args.options)
     if not isinstance(options, dict) or any(k not in names for k in options):
-        ap.error(f"--options must map planner names among {names} to option objects")
+        ap.error(f"--options must map planner labels among {names} to option objects")
     suite = load_suite(args.suite)
     cache = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache.exists():

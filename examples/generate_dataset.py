@@ -50,6 +50,8 @@ def main(argv=None):
     ap.add_argument("--apexes", type=int, default=DatasetConfig.apexes_per_terrain, help="initial states per terrain")
     ap.add_argument("--planner", choices=("angle", "step"), default=DatasetConfig.planner,
                     help="the search whose trees become sequences (angle: the paper's)")
+    ap.add_argument("--subcells", type=int, default=DatasetConfig.subcells,
+                    help="output bins per 10 cm cell (1: the paper's); with --planner step, its foothold grid")
     ap.add_argument("--min-steps", type=int, default=DatasetConfig.min_steps, help="shortest sequence kept")
     ap.add_argument("--start-x", type=float, default=DatasetConfig.start_x, help="first x an instance starts at")
     ap.add_argument("--heights", default=",".join(map(str, DatasetConfig.height_range)),
@@ -69,7 +71,8 @@ def main(argv=None):
     cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
                         height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
                         n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
-                        friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size)
+                        friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size,
+                        subcells=args.subcells)
     write_manifest(cfg, args.out)
     shards = pending_shards(cfg, args.out)
     print(f"{cfg.n_instances} instances in {cfg.n_shards} shards; {cfg.n_shards - len(shards)} already done")

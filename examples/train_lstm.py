@@ -17,7 +17,6 @@ import time
 import torch
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from planners.lstm_model import ModelConfig  # noqa: E402
 from planners.lstm_train import TrainConfig, train  # noqa: E402
 
 
@@ -32,6 +31,8 @@ def main(argv=None):
     ap.add_argument("--lr", type=float, default=d.lr)
     ap.add_argument("--own-inputs", type=float, default=d.own_inputs,
                     help="fraction of sequences trained on the model's own distributions as inputs")
+    ap.add_argument("--viable-weight", type=float, default=d.viable_weight,
+                    help="soft labels: share of each target spread over the step's viable set (0: the paper's)")
     ap.add_argument("--max-sequences", type=int, default=0)
     ap.add_argument("--seed", type=int, default=d.seed)
     ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
@@ -41,9 +42,9 @@ def main(argv=None):
         torch.set_num_threads(args.threads)
     cfg = TrainConfig(data=args.data, out=args.out, checkpoint=args.checkpoint, epochs=args.epochs,
                       batch_size=args.batch_size, lr=args.lr, own_inputs=args.own_inputs, seed=args.seed,
-                      device=args.device, max_sequences=args.max_sequences)
+                      device=args.device, max_sequences=args.max_sequences, viable_weight=args.viable_weight)
     t0 = time.perf_counter()
-    summary = train(cfg, ModelConfig())
+    summary = train(cfg)
     last = summary["history"][-1] if summary["history"] else {}
     print(json.dumps({"train_seconds": round(time.perf_counter() - t0, 1), "n_train": summary["n_train"],
                       "n_val": summary["n_val"], "best_val_loss": round(summary["best_val_loss"], 4),

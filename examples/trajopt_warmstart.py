@@ -83,7 +83,7 @@ def main(argv=None):
     ap.add_argument("--collocation", default=TrajoptConfig.collocation, choices=("chebyshev", "hermite-simpson"))
     ap.add_argument("--max-hops", type=int, default=TrajoptConfig.max_hops)
     ap.add_argument("--solver", default="snopt", choices=("snopt", "ipopt"))
-    ap.add_argument("--lstm-weights", default=None, help="checkpoint for the lstm seed (default: the committed one)")
+    ap.add_argument("--lstm-weights", default=None, help="checkpoint for the lstm and lstm-guided seeds (default: the committed one)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)

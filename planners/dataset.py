@@ -1,9 +1,11 @@
 """Training data for the footstep model: search trees turned into footstep sequences (Table I).
 
 Each instance is one terrain and one initial apex. Its search tree (Angle-space, as in the paper, or
-Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and every root-to-leaf path with at least ``min_steps`` footholds that covers at least
-``min_progress`` of the distance to the search target becomes a sequence: the encoded perception window at
-the initial apex and the window cells of its footholds. Instances are grouped into shards; each shard is
+Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and every root-to-leaf path with at
+least ``min_steps`` footholds that covers at least ``min_progress`` of the distance to the search target becomes a
+sequence: the encoded perception window at the initial apex and the window cells of its footholds. With every
+step goes its viable set, the cells of all the footholds the search found viable from the same apex (the step's
+siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight). Instances are grouped into shards; each shard is
 written atomically as one .npz, so an interrupted run resumes by skipping the shards already on disk.
 """
 from __future__ import annotations
@@ -47,6 +49,9 @@ class DatasetConfig:
     height_range: tuple = (0.55, 0.85)
     speed_range: tuple = (0.4, 2.6)
     families: tuple = ("ditch", "step")
+    # output bins per 10 cm cell: 1 is the paper's. With the Step-space planner and subcells > 1 its foothold
+    # grid is the bins' centres (no fallback grid), so a label bin is the exact foothold (see README, LSTM)
+    subcells: int = 1
     instances_per_shard: int = 16
     seed: int = 0
 
@@ -61,7 +66,7 @@ class DatasetConfig:
         if unknown:
             raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
         for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
-                     "instances_per_shard", "max_paths_per_instance", "max_steps"):
+                     "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells"):
             if getattr(self, name) < 1:
                 raise ValueError(f"DatasetConfig.{name} must be at least 1, got {getattr(self, name)}")
 
@@ -95,37 +100,64 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
     if cfg.planner == "angle":
         planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
                                     weights=cfg.weights, seed=cfg.seed * 7919 + i, **budget)
+    elif cfg.subcells > 1:
+        planner = StepSpacePlanner(spacing=terrain.cell / cfg.subcells, fallback_spacing=(),
+                                   n_sequences=cfg.goal_sequences, weights=cfg.weights, **budget)
     else:
         planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, weights=cfg.weights, **budget)
     return planner.search(apex, terrain, cfg.goal_x, params), planner.horizon
 
 
 def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
-    """All qualifying sequences of instance i as arrays (terrain, apex, s0, steps), plus search statistics."""
+    """All qualifying sequences of instance i as arrays (terrain, apex, s0, steps), plus search statistics;
+    s0 and steps are output bins (cells when cfg.subcells is 1)."""
     family, terrain, apex = instance(cfg, i)
     result, horizon = search_tree(cfg, i, apex, terrain)
     enc = encode_window(terrain, apex)
     target = min(cfg.goal_x, apex.x + horizon - 1.0)
     need = apex.x + cfg.min_progress * (target - apex.x)
-    n_cells = enc.terrain.size
-    steps = []
-    for seq in result.tree.paths():
-        if len(seq) < cfg.min_steps or seq.footholds[-1] < need:
+    n_bins = enc.terrain.size * cfg.subcells
+    tree = result.tree
+    siblings: dict = {}  # parent node -> its children's bins: the footholds the search found viable there
+    for node in range(1, len(tree)):
+        siblings.setdefault(tree.parent[node], []).append(node)
+    steps, viable = [], []
+    for leaf in tree.leaves():
+        nodes = _path_nodes(tree, leaf)
+        footholds = np.array([tree.foothold[n] for n in nodes])
+        if nodes.size < cfg.min_steps or footholds[-1] < need:
             continue
-        cells = enc.cell_of(seq.footholds[:cfg.max_steps])
-        inside = (cells >= 0) & (cells < n_cells)
-        steps.append(cells[:inside.argmin()] if not inside.all() else cells)  # cut at the window's edge
+        bins = enc.bin_of(footholds[:cfg.max_steps], cfg.subcells)
+        inside = (bins >= 0) & (bins < n_bins)
+        bins = bins[:inside.argmin()] if not inside.all() else bins  # cut at the window's edge
+        sets = np.zeros((bins.size, n_bins), dtype=bool)
+        for row, node in zip(sets, nodes):
+            there = enc.bin_of([tree.foothold[k] for k in siblings[tree.parent[node]]], cfg.subcells)
+            row[there[(there >= 0) & (there < n_bins)]] = True
+        steps.append(bins)
+        viable.append(sets)
     if len(steps) > cfg.max_paths_per_instance:
         keep = np.random.default_rng([cfg.seed, i, 1]).choice(len(steps), cfg.max_paths_per_instance, replace=False)
-        steps = [steps[k] for k in sorted(keep)]
+        steps, viable = [steps[k] for k in sorted(keep)], [viable[k] for k in sorted(keep)]
     t_max = max((s.size for s in steps), default=0)
     padded = np.full((len(steps), t_max), -1, dtype=np.int16)
-    for row, s in zip(padded, steps):
+    sets = np.zeros((len(steps), t_max, n_bins), dtype=bool)
+    for row, s, v, out in zip(padded, steps, viable, sets):
         row[:s.size] = s
+        out[:s.size] = v
     n = len(steps)
     return {"terrain": np.repeat(enc.terrain[None], n, axis=0), "apex": np.repeat(enc.apex[None], n, axis=0),
-            "s0": np.full(n, enc.s0, dtype=np.int16), "steps": padded, "family": family,
-            "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+            "s0": np.full(n, enc.s0_bin(cfg.subcells), dtype=np.int16), "steps": padded, "viable": sets,
+            "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+
+
+def _path_nodes(tree, leaf: int) -> np.ndarray:
+    """The nodes from the root's first child to ``leaf``."""
+    nodes = []
+    while leaf > 0:
+        nodes.append(leaf)
+        leaf = tree.parent[leaf]
+    return np.array(nodes[::-1], dtype=np.int64)
 
 
 def shard_path(folder: str, k: int) -> str:
@@ -144,6 +176,10 @@ def write_shard(cfg: DatasetConfig, k: int, folder: str) -> dict:
         "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int16),
         "steps": np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
                                  for p in parts]).astype(np.int16),
+        "subcells": np.array(cfg.subcells, dtype=np.int16),  # bins per cell of s0 and steps
+        # viable[j, i]: bit b set if the search found bin b viable for step i (its siblings), packed along bins
+        "viable": np.packbits(np.concatenate([np.pad(p["viable"], ((0, 0), (0, t_max - p["viable"].shape[1]), (0, 0)))
+                                              for p in parts]), axis=-1),
     }
     with atomic_write(shard_path(folder, k)) as f:
         np.savez_compressed(f, **arrays)
@@ -159,7 +195,8 @@ def write_manifest(cfg: DatasetConfig, folder: str) -> None:
         mine[name] = list(mine[name])  # as JSON reads them back
     if os.path.exists(path):
         with open(path) as f:
-            theirs = json.load(f)
+            defaults = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(DatasetConfig()).items()}
+            theirs = {**defaults, **json.load(f)}  # fields a folder predates have their defaults
         if theirs != mine:
             raise ValueError(f"{folder} holds a dataset made with another config ({path}); use a new folder")
         return

@@ -125,11 +125,12 @@ def summarize(cases: list) -> dict:
 
 def table(results: dict) -> str:
     """A text table like the paper's Tables II/III."""
+    w = max([12] + [len(name) for name in results["planners"]])
     rows = [f"Results on {results['suite']}",
-            f"{'Planner':<12} {'Success %':>9} {'ODE calls':>10} {'t_plan mean':>12} {'t_plan median':>14} "
+            f"{'Planner':<{w}} {'Success %':>9} {'ODE calls':>10} {'t_plan mean':>12} {'t_plan median':>14} "
             f"{'cases':>6}"]
     for name, r in results["planners"].items():
-        rows.append(f"{name:<12} {100 * r['success_rate']:>9.1f} {r['ode_calls_mean']:>10.0f} "
+        rows.append(f"{name:<{w}} {100 * r['success_rate']:>9.1f} {r['ode_calls_mean']:>10.0f} "
                     f"{r['t_plan_mean_s']:>11.2g}s {r['t_plan_median_s']:>13.2g}s {len(r['cases']):>6}")
     return "\n".join(rows)
 
@@ -139,11 +140,18 @@ def table(results: dict) -> str:
 _WORKER: dict = {}
 
 
+def planner_name(label: str) -> str:
+    """The registered planner behind a results label: ``NAME`` or ``NAME@VARIANT`` (a variant is the same
+    planner with other options, so two settings can run side by side in one evaluation)."""
+    return label.split("@", 1)[0]
+
+
 def _init_worker(planner_specs: dict, controller_path, refine: bool):
     controller = StepLengthController.load(controller_path or DEFAULT_WEIGHTS, refine=refine)
     _WORKER["controller"] = controller
-    _WORKER["planners"] = {name: make(name, **({"controller": controller} if takes(name, "controller") else {}),
-                                      **opts) for name, opts in planner_specs.items()}
+    _WORKER["planners"] = {
+        label: make(planner_name(label), **({"controller": controller} if takes(planner_name(label), "controller")
+                                            else {}), **opts) for label, opts in planner_specs.items()}
 
 
 def _run_task(planner_name: str, case_dict: dict, goal_x: float, friction: float, config: EvalConfig):
@@ -164,7 +172,7 @@ def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, c
     """Identifies a (suite, planner, options, weights) run, so cached cases are reused only for the same setup:
     retraining the controller or the LSTM invalidates them."""
     weights = None
-    if takes(planner, "weights"):
+    if takes(planner_name(planner), "weights"):
         from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
 
         weights = _digest(options.get("weights") or LSTM_WEIGHTS)

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from drakeslip import ApexState
+
 from .angle_space import run_attempts
 from .lstm_inference import softmax
 from .lstm_inputs import encode_window
@@ -16,22 +18,37 @@ from .step_space import StepSpacePlanner
 class PathConditionedSampler:
     """Next-foothold distributions for the nodes of one search tree. The LSTM state after each node's path is
     cached, so expanding a node costs one LSTM step (the paper passes the whole root-to-node path as the past
-    steps; this is the same computation without repeating it)."""
+    steps; this is the same computation without repeating it).
 
-    def __init__(self, net: FootstepDistribution, problem, temperature: float):
-        self.model = net.model
+    ``conditioning="apex"`` (beyond the paper) instead starts the model afresh at every node, from the apex the
+    search simulated there: the first step of a sequence is the one the model predicts best, because it is
+    the only one whose apex it is told; later steps depend on apexes it can only infer from the path."""
+
+    def __init__(self, net: FootstepDistribution, problem, temperature: float, conditioning: str = "path"):
+        self.net, self.model = net, net.model
+        self.problem = problem
         self.enc = encode_window(problem.terrain, problem.apex)
         self.terrain, self.apex, self.s0, self.mask = net.inputs(self.enc)
         self.temperature = temperature
-        self.cache: dict = {}  # node -> (probabilities of the step after it, LSTM state after it)
+        self.conditioning = conditioning
+        self.cache: dict = {}  # node -> (probabilities of the step after it, LSTM state after it or its window)
+
+    def _restart(self, tree, node: int):
+        """The model's first-step distribution from the node's own apex and window."""
+        enc = encode_window(self.problem.terrain, ApexState(*tree.apex[node]))
+        terrain, apex, s0, mask = self.net.inputs(enc)
+        logits, _ = self.model.step(terrain, s0, self.model.initial_state(apex))
+        return softmax(logits[0] / self.temperature, None if mask is None else mask[0]), enc
 
     def _advance(self, tree, node: int):
+        if node not in self.cache and self.conditioning == "apex":
+            self.cache[node] = self._restart(tree, node)
         if node not in self.cache:
             if node == 0:
                 prev, state = self.s0, self.model.initial_state(self.apex)
             else:
                 prev = np.zeros_like(self.s0)
-                prev[0, int(np.clip(self.enc.cell_of(tree.foothold[node]), 0, prev.shape[1] - 1))] = 1.0
+                prev[0, int(np.clip(self.net.bin_of(self.enc, tree.foothold[node]), 0, prev.shape[1] - 1))] = 1.0
                 state = self._advance(tree, tree.parent[node])[1]
             logits, after = self.model.step(self.terrain, prev, state)
             self.cache[node] = (softmax(logits[0] / self.temperature, None if self.mask is None else self.mask[0]),
@@ -39,13 +56,13 @@ class PathConditionedSampler:
         return self.cache[node]
 
     def weights(self, tree, node: int, x_l: np.ndarray) -> np.ndarray:
-        """The temperature-scaled probability of each candidate foothold's cell for the step after ``node``
+        """The temperature-scaled probability of each candidate foothold's bin for the step after ``node``
         (0 outside the window and, with ditch masking, in ditches)."""
-        probs = self._advance(tree, node)[0]
-        cells = self.enc.cell_of(x_l)
-        inside = (cells >= 0) & (cells < probs.size)
+        probs, after = self._advance(tree, node)
+        bins = self.net.bin_of(after if self.conditioning == "apex" else self.enc, x_l)
+        inside = (bins >= 0) & (bins < probs.size)
         p = np.zeros(x_l.size)
-        p[inside] = probs[cells[inside]]
+        p[inside] = probs[bins[inside]]
         return p
 
 
@@ -64,7 +81,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     Step-space expansion)."""
 
     def __init__(self, weights=None, branching: int = 3, fallback: tuple = (5,), temperature: float = 1.0,
-                 mask_ditches: bool = True, seed: int = 0, **options):
+                 mask_ditches: bool = True, seed: int = 0, lazy: bool = False, conditioning: str = "path",
+                 **options):
         super().__init__(**options)
         for b in (branching, *fallback):
             if not (isinstance(b, int) and b >= 1):
@@ -75,13 +93,17 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.attempts = (branching, *fallback)
         self.temperature = float(temperature)
         self.seed = seed
+        self.lazy = bool(lazy)
+        if conditioning not in ("path", "apex"):
+            raise ValueError(f"conditioning must be 'path' or 'apex', got {conditioning!r}")
+        self.conditioning = conditioning
 
     def _plan(self, problem):
         self.controller.check_params(problem.params)
         return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.attempts])
 
     def _search(self, problem, branching):
-        sampler = PathConditionedSampler(self.net, problem, self.temperature)
+        sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
         terrain, params = problem.terrain, problem.params
         rng = np.random.default_rng(self.seed)
         draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
@@ -99,14 +121,15 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
             ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
             tried = []
+            width = 1 if self.lazy else branching
             while d["pos"] < order.size or d["ready"]:
-                while len(d["ready"]) < branching and d["pos"] < order.size:  # aiming is the cost: lazily
-                    chunk = order[d["pos"]:d["pos"] + 4 * branching]
+                while len(d["ready"]) < width and d["pos"] < order.size:  # aiming is the cost: lazily
+                    chunk = order[d["pos"]:d["pos"] + 4 * width]
                     d["pos"] += chunk.size
                     theta[chunk] = self.aim(apex, x_l[chunk], terrain, params)
                     d["ready"] += [i for i in chunk.tolist() if theta[i] == theta[i]]
-                batch = np.array(d["ready"][:branching], dtype=np.int64)
-                d["ready"] = d["ready"][branching:]
+                batch = np.array(d["ready"][:width], dtype=np.int64)
+                d["ready"] = d["ready"][width:]
                 tried += batch.tolist()
                 ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
                 if ok[batch].any():

@@ -38,15 +38,16 @@ class NumpyFootstepModel:
         return hc[:, 0].transpose(1, 0, 2).copy(), hc[:, 1].transpose(1, 0, 2).copy()  # (layers, B, hidden)
 
     def _encode(self, terrain: np.ndarray, prev: np.ndarray) -> np.ndarray:
-        x = np.stack((terrain, prev), axis=1)  # (B, channels, n)
-        b, n, k = x.shape[0], x.shape[2], self.config.kernel
+        b, n = terrain.shape
+        x = np.concatenate((terrain[:, None], prev.reshape(b, n, -1).transpose(0, 2, 1)), axis=1)  # (B, C, n)
+        k = self.config.kernel
         for weight, bias in self.conv:
             windows = sliding_window_view(np.pad(x, ((0, 0), (0, 0), (k // 2, k // 2))), k, axis=2)  # (B, C, n, k)
             x = np.maximum(windows.transpose(0, 2, 1, 3).reshape(b, n, -1) @ weight + bias, 0.0).transpose(0, 2, 1)
         return np.maximum(x.reshape(b, -1) @ self.fc[0].T + self.fc[1], 0.0)
 
     def step(self, terrain: np.ndarray, prev: np.ndarray, state):
-        """One step for a batch: terrain (B, n), prev (B, n) -> logits (B, n), the state after it."""
+        """One step for a batch: terrain (B, n), prev (B, n_bins) -> logits (B, n_bins), the state after it."""
         x = self._encode(terrain, prev)
         h, c = state
         h, c = h.copy(), c.copy()
@@ -57,7 +58,7 @@ class NumpyFootstepModel:
         return x @ self.head[0].T + self.head[1], (h, c)
 
     def rollout(self, terrain, apex, s0, n_steps: int, mask=None, temperature: float = 1.0) -> np.ndarray:
-        """FootstepModel.rollout: each step's distribution fed back as the next input; (B, n_steps, n)."""
+        """FootstepModel.rollout: each step's distribution fed back as the next input; (B, n_steps, n_bins)."""
         prev, state = s0, self.initial_state(apex)
         probs = []
         for _ in range(n_steps):

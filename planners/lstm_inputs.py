@@ -27,6 +27,18 @@ class WindowEncoding:
         """Centre of each cell, world x."""
         return self.x_start + (np.asarray(cells, dtype=np.float64) + 0.5) * self.cell
 
+    def bin_of(self, x, subcells: int = 1) -> np.ndarray:
+        """The model's output bin of each x: the cell split into ``subcells`` equal parts (1: the cell)."""
+        return np.floor((np.asarray(x, dtype=np.float64) - self.x_start) / (self.cell / subcells)).astype(np.int64)
+
+    def x_of_bin(self, bins, subcells: int = 1) -> np.ndarray:
+        """Centre of each bin, world x."""
+        return self.x_start + (np.asarray(bins, dtype=np.float64) + 0.5) * (self.cell / subcells)
+
+    def s0_bin(self, subcells: int = 1) -> int:
+        """The bin under the body (``s0``): its cell, and the part of it the body's offset falls in."""
+        return self.s0 * subcells + min(int(float(self.apex[2]) * subcells), subcells - 1)
+
 
 def reference_height(window_heights: np.ndarray, s0: int, ditch_height: float) -> float:
     """The ground the window is measured from: the cell under the body, or, over a ditch, the nearest solid cell

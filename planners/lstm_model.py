@@ -10,6 +10,10 @@ Inputs, all in the perception window of ``n_cells`` cells (8 m ahead, 3 m behind
 n_cells) the previous step of each of the T steps as a distribution over cells. ``s_0`` is the one-hot cell
 under the body at the start apex (our planner is called at the apex, before the leg angle is chosen, so the
 body's own cell replaces the paper's "inevitable touchdown").
+
+Beyond the paper, ``subcells`` > 1 splits every cell into that many output bins (2.5 cm for 4): the head gives
+logits over n_cells * subcells bins and the previous step enters the CNN as ``subcells`` channels (bin k of
+each cell in channel k), so the image keeps the terrain's 10 cm resolution. ``subcells=1`` is the paper's model.
 """
 from __future__ import annotations
 
@@ -29,6 +33,11 @@ class ModelConfig:
     channels: int = 8         # CNN feature maps
     kernel: int = 7           # 7x1 filters (the paper)
     apex_features: int = 3
+    subcells: int = 1         # output bins per cell (1: the paper's model)
+
+    @property
+    def n_bins(self) -> int:
+        return self.n_cells * self.subcells
 
 
 class FootstepModel(nn.Module):
@@ -38,11 +47,11 @@ class FootstepModel(nn.Module):
         self.config = c
         self.g0 = nn.Linear(c.apex_features, 2 * c.layers * c.hidden)  # initial (h, c) of every layer
         self.cnn = nn.Sequential(
-            nn.Conv1d(2, c.channels, c.kernel, padding=c.kernel // 2), nn.ReLU(),
+            nn.Conv1d(1 + c.subcells, c.channels, c.kernel, padding=c.kernel // 2), nn.ReLU(),
             nn.Conv1d(c.channels, c.channels, c.kernel, padding=c.kernel // 2), nn.ReLU(),
             nn.Flatten(), nn.Linear(c.channels * c.n_cells, c.n_cells), nn.ReLU())
         self.lstm = nn.LSTM(c.n_cells, c.hidden, num_layers=c.layers, batch_first=True)
-        self.head = nn.Linear(c.hidden, c.n_cells)
+        self.head = nn.Linear(c.hidden, c.n_bins)
 
     def initial_state(self, apex: torch.Tensor):
         c = self.config
@@ -50,20 +59,21 @@ class FootstepModel(nn.Module):
         return hc[0].contiguous(), hc[1].contiguous()
 
     def encode(self, terrain: torch.Tensor, prev: torch.Tensor) -> torch.Tensor:
-        """(B, T, n) terrain-and-previous-step images -> (B, T, n) LSTM inputs."""
-        b, t, n = prev.shape
-        image = torch.stack((terrain.unsqueeze(1).expand(b, t, n), prev), dim=2)  # (B, T, 2, n)
-        return self.cnn(image.reshape(b * t, 2, n)).view(b, t, -1)
+        """Terrain (B, n) and previous steps (B, T, n * subcells) -> (B, T, n) LSTM inputs."""
+        b, t, n, k = prev.shape[0], prev.shape[1], terrain.shape[-1], self.config.subcells
+        steps = prev.reshape(b, t, n, k).transpose(2, 3)  # (B, T, subcells, n)
+        image = torch.cat((terrain.view(b, 1, 1, n).expand(b, t, 1, n), steps), dim=2)
+        return self.cnn(image.reshape(b * t, 1 + k, n)).view(b, t, -1)
 
     def forward(self, terrain, apex, prev, state=None):
-        """Logits (B, T, n) for steps 1..T given the previous steps; returns (logits, lstm state)."""
+        """Logits (B, T, n_bins) for steps 1..T given the previous steps; returns (logits, lstm state)."""
         out, state = self.lstm(self.encode(terrain, prev), state if state is not None else self.initial_state(apex))
         return self.head(out), state
 
     @torch.no_grad()
     def rollout(self, terrain, apex, s0, n_steps: int, mask=None, temperature: float = 1.0):
         """Plan n_steps ahead, feeding each step's own distribution back in (the paper's planning mode).
-        ``mask`` (B, n) bool marks cells a foot may never use (e.g. ditches). Returns (B, n_steps, n) probs."""
+        ``mask`` (B, n_bins) bool marks bins a foot may never use (e.g. ditches). Returns (B, n_steps, n_bins)."""
         prev = s0.unsqueeze(1)
         state = self.initial_state(apex)
         probs = []

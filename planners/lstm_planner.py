@@ -17,7 +17,8 @@ from .lstm_model import FootstepModel, load_checkpoint
 from .registry import register
 from .search import clear_of_edges
 
-DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "lstm.pt"
+DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "lstm.pt"            # the paper's model (Table I data)
+SUBCELL_WEIGHTS = DEFAULT_WEIGHTS.with_name("lstm_subcell.pt")  # beyond the paper: 2.5 cm bins, viable sets
 _MODELS: dict = {}
 
 
@@ -38,12 +39,24 @@ class FootstepDistribution:
         self.model = NumpyFootstepModel(model)
         self.mask_ditches = mask_ditches
 
+    @property
+    def subcells(self) -> int:
+        return self.model.config.subcells
+
     def inputs(self, enc: WindowEncoding):
-        """(terrain, apex, s0, mask) as batch-of-one arrays; mask is None when ditches are allowed."""
-        s0 = np.zeros((1, enc.terrain.size))
-        s0[0, enc.s0] = 1.0
-        mask = enc.ditch[None] if self.mask_ditches else None
+        """(terrain, apex, s0, mask) as batch-of-one arrays over the model's bins; mask is None when ditches
+        are allowed."""
+        s0 = np.zeros((1, enc.terrain.size * self.subcells))
+        s0[0, enc.s0_bin(self.subcells)] = 1.0
+        mask = np.repeat(enc.ditch, self.subcells)[None] if self.mask_ditches else None
         return enc.terrain[None].astype(np.float64), enc.apex[None].astype(np.float64), s0, mask
+
+    def bin_of(self, enc: WindowEncoding, x) -> np.ndarray:
+        return enc.bin_of(x, self.subcells)
+
+    def centres(self, enc: WindowEncoding) -> np.ndarray:
+        """World x of every bin's centre."""
+        return enc.x_of_bin(np.arange(enc.terrain.size * self.subcells), self.subcells)
 
     def rollout(self, enc: WindowEncoding, n_steps: int, temperature: float = 1.0) -> np.ndarray:
         terrain, apex, s0, mask = self.inputs(enc)
@@ -57,8 +70,9 @@ class LSTMPlanner(Planner):
     them; the plan holds the first leg angle (from the current apex) and leaves later angles and apexes NaN,
     since the model does not predict them.
 
-    The mode is taken over footholds the hopper can use, on a quarter-cell grid (cell probabilities
-    interpolated between cell centres, so a mode next to a ditch slides away from its edge): ahead of the
+    The mode is taken over footholds the hopper can use, on a quarter-cell grid (the bins of a 4-bin sub-cell
+    model; a per-cell model's probabilities interpolated between cell centres, so a mode next to a ditch
+    slides away from its edge): ahead of the
     previous foothold, on solid ground at least ``edge_margin`` from an edge, and, for the first step, reached
     by the controller inside the friction cone. The paper reports that its mode often failed on exactly these
     two counts (friction cone, edges); both can be checked without simulating."""
@@ -79,10 +93,11 @@ class LSTMPlanner(Planner):
         self.edge_margin = float(edge_margin)
 
     def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0):
-        """Per-step probabilities over the window's cells, (n, cells), and the cells' centres x (cells,)."""
+        """Per-step probabilities over the window's bins (its cells, or their parts for a sub-cell model),
+        (n, bins), and the bins' centres x (bins,)."""
         apex = ApexState(*map(float, apex)).validate()
         enc = encode_window(terrain, apex)
-        return self.net.rollout(enc, n, temperature), enc.x_of(np.arange(enc.terrain.size))
+        return self.net.rollout(enc, n, temperature), self.net.centres(enc)
 
     def _plan(self, problem: Problem) -> Plan:
         terrain, params, apex = problem.terrain, problem.params, problem.apex
@@ -90,7 +105,7 @@ class LSTMPlanner(Planner):
         model = self.net.model
         window, apex_in, prev, mask = self.net.inputs(enc)
         state = model.initial_state(apex_in)
-        centres = enc.x_of(np.arange(enc.terrain.size))
+        centres = self.net.centres(enc)
         spacing = terrain.cell / 4
         first = math.ceil((apex.x - params.leg_length - terrain.x0) / spacing - 0.5)
         last = math.floor((problem.window_end - terrain.x0) / spacing - 0.5)
@@ -110,7 +125,7 @@ class LSTMPlanner(Planner):
                 break
             if self.feedback == "mode":
                 prev = np.zeros_like(p)
-                prev[0, enc.cell_of(behind)] = 1.0
+                prev[0, self.net.bin_of(enc, behind)] = 1.0
             else:
                 prev = p
         if not footholds:

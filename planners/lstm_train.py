@@ -31,14 +31,15 @@ class TrainConfig:
     weight_decay: float = 1e-4
     val_fraction: float = 0.1
     own_inputs: float = 0.3
+    viable_weight: float = 0.0          # soft labels: this share of each target spread over the step's viable set
     seed: int = 0
     device: str = "cpu"
     max_sequences: int = 0              # 0 = all
 
 
-def load_dataset(folder: str, max_sequences: int = 0) -> dict:
+def load_dataset(folder: str, max_sequences: int = 0) -> tuple[dict, int]:
     """Concatenate the shards in ``folder`` into arrays: terrain (N, n), apex (N, 3), s0 (N,), steps (N, T)
-    with -1 padding."""
+    with -1 padding, as output bins; ``subcells`` is the bins per cell (1 for shards that predate it)."""
     files = sorted(f for f in os.listdir(folder) if f.endswith(".npz"))
     if not files:
         raise ValueError(f"no dataset shards (*.npz) in {folder}")
@@ -50,23 +51,42 @@ def load_dataset(folder: str, max_sequences: int = 0) -> dict:
             "apex": np.concatenate([p["apex"] for p in parts]).astype(np.float32),
             "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int64),
             "steps": steps.astype(np.int64)}
-    n_cells = data["terrain"].shape[1]
-    if data["steps"].max() >= n_cells or data["s0"].max() >= n_cells or data["s0"].min() < 0:
-        raise ValueError(f"dataset in {folder} has foothold cells outside the {n_cells}-cell window")
+    if all("viable" in p for p in parts):  # packed bits over the bins, per step
+        data["viable"] = np.concatenate([np.pad(p["viable"], ((0, 0), (0, t_max - p["viable"].shape[1]), (0, 0)))
+                                         for p in parts])
+    subcells = {int(p["subcells"]) if "subcells" in p else 1 for p in parts}
+    if len(subcells) != 1:
+        raise ValueError(f"dataset in {folder} mixes shards with different bins per cell: {sorted(subcells)}")
+    n_bins = data["terrain"].shape[1] * (subcells := subcells.pop())
+    if data["steps"].max() >= n_bins or data["s0"].max() >= n_bins or data["s0"].min() < 0:
+        raise ValueError(f"dataset in {folder} has foothold bins outside the {n_bins}-bin window")
     if max_sequences:
         data = {k: v[:max_sequences] for k, v in data.items()}
-    return data
+    return data, subcells
 
 
-def one_hot_inputs(s0: torch.Tensor, steps: torch.Tensor, n_cells: int) -> torch.Tensor:
+def one_hot_inputs(s0: torch.Tensor, steps: torch.Tensor, n_bins: int) -> torch.Tensor:
     """Teacher-forced previous steps: [s0, step_1, ..., step_{T-1}] as one-hot (padding -> zeros)."""
     prev_idx = torch.cat((s0.unsqueeze(1), steps[:, :-1]), dim=1)
-    return F.one_hot(prev_idx.clamp(min=0), n_cells).float() * (prev_idx >= 0).unsqueeze(-1)
+    return F.one_hot(prev_idx.clamp(min=0), n_bins).float() * (prev_idx >= 0).unsqueeze(-1)
 
 
-def batch_loss(model: FootstepModel, batch: dict, own_inputs: float = 0.0, generator=None):
-    """Cross-entropy over the real (non-padded) steps; returns (loss, top-1 hits, within-1 hits, count)."""
-    n = model.config.n_cells
+def soft_targets(steps: torch.Tensor, viable: torch.Tensor, n_bins: int, weight: float) -> torch.Tensor:
+    """(1 - weight) on each step's label and ``weight`` spread evenly over its viable set (unpacked bits;
+    the label is always one of them); padded steps get all zeros."""
+    bits = torch.arange(7, -1, -1, device=viable.device)
+    sets = ((viable.unsqueeze(-1).long() >> bits) & 1).flatten(-2)[..., :n_bins].float()
+    onehot = F.one_hot(steps.clamp(min=0), n_bins).float()
+    sets = torch.maximum(sets, onehot)
+    q = (1 - weight) * onehot + weight * sets / sets.sum(-1, keepdim=True)
+    return q * (steps >= 0).unsqueeze(-1)
+
+
+def batch_loss(model: FootstepModel, batch: dict, own_inputs: float = 0.0, generator=None,
+               viable_weight: float = 0.0):
+    """Cross-entropy over the real (non-padded) steps, against the labels or, with ``viable_weight`` > 0, the
+    soft targets; returns (loss, top-1 hits, within-one-cell hits, count)."""
+    n, k = model.config.n_bins, model.config.subcells
     prev = one_hot_inputs(batch["s0"], batch["steps"], n)
     if own_inputs > 0:
         with torch.no_grad():
@@ -77,11 +97,15 @@ def batch_loss(model: FootstepModel, batch: dict, own_inputs: float = 0.0, gener
         prev = torch.where(use_own.view(-1, 1, 1), soft, prev)
     logits, _ = model(batch["terrain"], batch["apex"], prev)
     target = batch["steps"]
-    loss = F.cross_entropy(logits.reshape(-1, n), target.reshape(-1), ignore_index=-1)
     valid = target >= 0
+    if viable_weight > 0:
+        q = soft_targets(target, batch["viable"][:, :target.shape[1]], n, viable_weight)
+        loss = -(q * torch.log_softmax(logits, -1)).sum() / valid.sum().clamp(min=1)
+    else:
+        loss = F.cross_entropy(logits.reshape(-1, n), target.reshape(-1), ignore_index=-1)
     pred = logits.argmax(-1)
     top1 = ((pred == target) & valid).sum().item()
-    near = (((pred - target).abs() <= 1) & valid).sum().item()
+    near = (((pred - target).abs() <= k) & valid).sum().item()
     return loss, top1, near, valid.sum().item()
 
 
@@ -98,22 +122,27 @@ def evaluate(model: FootstepModel, data: dict, idx: np.ndarray, cfg: TrainConfig
     total = top1 = near = count = 0.0
     with torch.no_grad():
         for batch in _batches(data, idx, cfg.batch_size, cfg.device):
-            loss, t1, nr, c = batch_loss(model, batch)
+            loss, t1, nr, c = batch_loss(model, batch, viable_weight=cfg.viable_weight)
             total += loss.item() * c
             top1, near, count = top1 + t1, near + nr, count + c
     model.train()
     return {"loss": total / max(count, 1), "top1": top1 / max(count, 1), "within1": near / max(count, 1)}
 
 
-def train(cfg: TrainConfig, model_config: ModelConfig = ModelConfig(), log=print) -> dict:
-    """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``."""
+def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print) -> dict:
+    """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``. The model's bins
+    per cell come from the dataset unless ``model_config`` is given."""
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
-    data = load_dataset(cfg.data, cfg.max_sequences)
+    data, subcells = load_dataset(cfg.data, cfg.max_sequences)
+    if cfg.viable_weight > 0 and "viable" not in data:
+        raise ValueError(f"viable_weight={cfg.viable_weight} needs viable sets, which the shards in {cfg.data} "
+                         "predate; regenerate them")
+    model_config = model_config or ModelConfig(subcells=subcells)
     n = data["terrain"].shape[0]
-    if data["terrain"].shape[1] != model_config.n_cells:
-        raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells, model expects "
-                         f"{model_config.n_cells}")
+    if data["terrain"].shape[1] != model_config.n_cells or subcells != model_config.subcells:
+        raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells of {subcells} bins, model expects "
+                         f"{model_config.n_cells} of {model_config.subcells}")
     order = rng.permutation(n)
     n_val = max(1, int(round(cfg.val_fraction * n)))
     val_idx, train_idx = order[:n_val], order[n_val:]
@@ -137,7 +166,7 @@ def train(cfg: TrainConfig, model_config: ModelConfig = ModelConfig(), log=print
         epoch_idx = train_idx[np.random.default_rng(cfg.seed + epoch).permutation(train_idx.size)]
         total = count = 0.0
         for batch in _batches(data, epoch_idx, cfg.batch_size, cfg.device):
-            loss, _, _, c = batch_loss(model, batch, cfg.own_inputs, generator)
+            loss, _, _, c = batch_loss(model, batch, cfg.own_inputs, generator, cfg.viable_weight)
             opt.zero_grad(set_to_none=True)
             loss.backward()
             torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)

@@ -1,8 +1,8 @@
 """Multi-hop trajectory optimization of the SLIP in Drake's ``MathematicalProgram``, warm-started by a seed.
 
-A seed (``cold``, ``heuristic``, ``step`` or ``lstm``, see ``seed_footholds``) proposes N footholds. They fix
-the discrete part of the problem, the flat run of cells ("segment") each hop lands on, and the optimizer
-moves the footholds within their segments, together with everything continuous about the N hops.
+A seed (``cold``, ``heuristic``, ``step``, ``lstm`` or ``lstm-guided``, see ``seed_footholds``) proposes N
+footholds. They fix the discrete part of the problem, the flat run of cells ("segment") each hop lands on, and
+the optimizer moves the footholds within their segments, together with everything continuous about the N hops.
 
 Transcription (hop i = 0..N-1; apex 0 is the given start):
 
@@ -50,8 +50,11 @@ pushes footholds off edges without pulling them to segment centres. Angle and sp
 units of 0.1 rad and 0.5 m/s; smooth commands and steady speeds are also what keeps an open-loop plan robust.
 Progress is the only term that rewards distance, normalized so that reaching the target is worth 1.
 
-The solver is SNOPT (IPOPT when SNOPT is unavailable, or asked for); major iterations are read from the
-solver's print file. Every solution is checked by simulating its leg angles open loop on the Drake hybrid
+Initial guess (``build_guess``): the seed's footholds executed by the controller on the fast step map, as the
+seed's plan would be, which fixes every variable; where a hop fails or misses its foothold the guess re-anchors
+the next apex on the footholds (energy-consistent), and if the solver does not converge from that guess it
+tries once more with the plain chained one. The solver is SNOPT (IPOPT when SNOPT is unavailable, or asked
+for); major iterations are read from the solver's print file. Every solution is checked by simulating its leg angles open loop on the Drake hybrid
 simulator (``drakeslip.simulate``) on the true terrain (``verify``): no failure in its N hops and the last apex
 past the target.
 """
@@ -77,7 +80,7 @@ from drakeslip.fast_step import _rk4
 from .base import FootstepSequence, Plan, Planner, Problem
 from .registry import register
 
-SEEDS = ("cold", "heuristic", "step", "lstm")
+SEEDS = ("cold", "heuristic", "step", "lstm", "lstm-guided")
 COLLOCATIONS = ("chebyshev", "hermite-simpson")
 EDGE_SCALE = 0.05    # [m]   distance to an edge at which the edge cost of a foothold is 1
 ANGLE_SCALE = 0.1    # [rad] change in leg angle between hops that costs 1
@@ -119,8 +122,9 @@ class TrajoptConfig:
     min_stance_speed: float = 0.05   # [m/s] xdot at every stance knot (a STALL below 0)
     weights: CostWeights = field(default_factory=CostWeights)
     solver: str = "snopt"            # "snopt" or "ipopt"; snopt falls back to ipopt when unavailable
-    lstm_weights: str | None = None  # checkpoint for the lstm seed (default: planners/weights/lstm.pt)
+    lstm_weights: str | None = None  # checkpoint for the lstm seeds (default: the planners' committed one)
     solver_options: tuple = ()       # extra (name, value) pairs for the solver
+    retry: bool = True               # no convergence from the re-anchored guess: try the chained one too
     major_iterations: int = 400
     optimality_tolerance: float = 1e-5
     feasibility_tolerance: float = 1e-7
@@ -426,6 +430,8 @@ def _seed_planner(name: str, max_hops: int, lstm_weights: str | None = None):
 
     if name == "lstm":  # the model's modes, fed back, for as many steps as the optimization takes
         return planners.make(name, controller=_controller(), max_steps=max_hops, weights=lstm_weights)
+    if name == "lstm-guided":  # footholds sampled from the model, each hop checked on the fast step map
+        return planners.make(name, controller=_controller(), weights=lstm_weights)
     if name == "step":
         return planners.make(name, controller=_controller())
     return planners.make(name)
@@ -441,13 +447,14 @@ def _controller():
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
                    lstm_weights: str | None = None) -> np.ndarray:
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
-    past the target. ``lstm_weights``: a checkpoint for the ``lstm`` seed (default: the committed model)."""
+    past the target. ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model)."""
     if name not in SEEDS:
         raise ValueError(f"unknown seed {name!r}; known seeds: {', '.join(SEEDS)}")
     if name == "cold":
         footholds = cold_footholds(problem)
     else:
-        planner = _seed_planner(name, max_hops, str(lstm_weights) if lstm_weights and name == "lstm" else None)
+        weights = str(lstm_weights) if lstm_weights and name.startswith("lstm") else None
+        planner = _seed_planner(name, max_hops, weights)
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")
@@ -537,7 +544,7 @@ def _symmetric_stance(s0, foot, tau: np.ndarray, params: SlipParams):
 
 
 def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: SlipParams,
-                tau: np.ndarray, controller=None) -> Guess:
+                tau: np.ndarray, controller=None, reanchor: bool = True) -> Guess:
     """Execute the footholds as the seed's plan would be: at every apex the controller's leg angle for the next
     foothold, the hop on the fast step map (whose next apex the guess takes). Stance knots (at the times
     ``tau``, fractions of the stance) come from integrating the shared stance equations from the touchdown on
@@ -547,7 +554,8 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
     the rest of the chain meaningless (a hop that nearly stalls sends the next one anywhere). The guess keeps
     that hop's stance (integrated, or a symmetric one where it stalls or bottoms out) and re-anchors the next
     apex: midway between the two footholds, as high above the higher of their segments as the start was above
-    its ground, and as fast as the start's energy allows there (the SLIP conserves energy)."""
+    its ground, and as fast as the start's energy allows there (the SLIP conserves energy). With
+    ``reanchor=False`` the chain goes on from that hop's liftoff instead."""
     controller = controller or _controller()
     L0, g = params.leg_length, params.gravity
     apex = ApexState(*map(float, apex))
@@ -584,6 +592,11 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
             knots_out = _symmetric_stance(s0, foot, tau, params)
         dur, path = knots_out
         angles[i], falls[i], durs[i], feet[i], stance[i] = theta, tf, dur, foot[0], path
+        if not reanchor:  # go on from the liftoff
+            lo = path[-1]
+            zd, xd = max(lo[3], 0.05), max(lo[2], 0.05)
+            apexes[i + 1] = (lo[0] + xd * zd / g, lo[1] + zd * zd / (2 * g), xd)
+            continue
         # re-anchor the next apex on the seed's footholds
         nxt = footholds[i + 1] if i + 1 < n else footholds[i] + (footholds[i] - (footholds[i - 1] if i else a.x))
         top = max(h, segs[i + 1].height if i + 1 < n else h)
@@ -1006,7 +1019,9 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
     same) what the solution is verified on. Returns a JSON-ready record: ``converged`` (the solver found a
     locally optimal, feasible point), ``drake_ok`` (its leg angles pass ``verify``) and ``verified`` (both: a
     plan the optimizer stands by and Drake confirms). A seed that gives nothing to optimize is reported with
-    ``error`` set, not raised."""
+    ``error`` set, not raised. The solver starts from the re-anchored guess (``build_guess``); when that does
+    not converge and the seed did not execute as it is, it starts once more from the chained guess
+    (``config.retry``); ``solve_time_s`` and ``iterations`` add up both attempts."""
     config = config or TrajoptConfig()
     record = {"seed": seed if isinstance(seed, str) else "footholds", "target_x": problem.target_x,
               "converged": False, "verified": False, "error": None}
@@ -1026,12 +1041,26 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
     except TrajoptError as exc:
         record["error"] = str(exc)
         return record
-    guess = build_guess(problem.apex, footholds, segs, problem.terrain, problem.params, config.node_times())
-    record["seed_fast_ok"] = guess.fast_ok
-    record["seed_fast_failure"] = guess.fast_failure
     program = SlipTrajopt(problem.apex, problem.terrain, segs, problem.params, problem.target_x, config)
-    result = program.solve(guess)
+    attempts = []
+    for reanchor in (True, False):
+        guess = build_guess(problem.apex, footholds, segs, problem.terrain, problem.params, config.node_times(),
+                            reanchor=reanchor)
+        if reanchor:
+            record["seed_fast_ok"] = guess.fast_ok
+            record["seed_fast_failure"] = guess.fast_failure
+        result = program.solve(guess)
+        attempts.append({"guess": "re-anchored" if reanchor else "chained", "converged": result.converged,
+                         "status": result.status, "iterations": result.iterations,
+                         "solve_time_s": result.solve_time_s})
+        if result.converged or guess.fast_ok or not config.retry:  # (a seed that executes has one guess)
+            break
     record.update(result.summary())
+    # what the query cost: every attempt's solver time and iterations
+    record["solve_time_s"] = sum(a["solve_time_s"] for a in attempts)
+    record["iterations"] = (None if any(a["iterations"] is None for a in attempts)
+                            else sum(a["iterations"] for a in attempts))
+    record["attempts"] = attempts
     if verify_on_drake:
         check = verify(problem.apex, result.leg_angles, true_terrain or problem.terrain, problem.params,
                        problem.target_x)

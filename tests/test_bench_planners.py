@@ -3,7 +3,7 @@ training step of the footstep model."""
 import pytest
 
 import planners
-from drakeslip import SlipParams, ditch_world
+from drakeslip import ApexState, SlipParams, ditch_world
 from planners.evaluation import perceived
 
 TERRAIN = perceived(ditch_world(1003), 0.0)
@@ -17,9 +17,15 @@ def controller():
     return StepLengthController.load_default()
 
 
-@pytest.mark.parametrize("name", ["heuristic", "angle", "step", "lstm", "lstm-guided"])
+# beyond-the-paper settings of LSTM-guided, side by side with the paper's (see README, learned planners)
+VARIANTS = {"lstm-guided@lazy": {"lazy": True}, "lstm-guided@lazy-apex": {"lazy": True, "conditioning": "apex"}}
+
+
+@pytest.mark.parametrize("name", ["heuristic", "angle", "step", "lstm", "lstm-guided", *VARIANTS])
 def test_bench_one_plan(benchmark, controller, name):
-    planner = planners.make(name, **({"controller": controller} if planners.takes(name, "controller") else {}))
+    base = name.split("@")[0]
+    planner = planners.make(base, **({"controller": controller} if planners.takes(base, "controller") else {}),
+                            **VARIANTS.get(name, {}))
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=5 if name != "heuristic" else 50,
                               warmup_rounds=1)
     assert plan.success, plan.message
@@ -52,3 +58,28 @@ def test_bench_one_training_step(benchmark):
     first = step()
     benchmark.pedantic(step, rounds=3, warmup_rounds=0)
     assert step() < first  # it trains
+
+
+@pytest.mark.parametrize("n", [4, 40])
+def test_bench_controller_call(benchmark, controller, n):
+    """One controller call aiming n candidate footholds (with its Newton polish): LSTM-guided aims a few per
+    call, Step-space a node's whole grid; the fixed cost per call is what sets their planning times."""
+    import numpy as np
+
+    footholds = np.linspace(0.3, 1.2, n)
+    theta = benchmark(controller.leg_angles, APEX, footholds, TERRAIN)
+    assert theta.shape == (n,) and np.all(np.isfinite(theta))
+
+
+def test_bench_lstm_step(benchmark):
+    """One step of the footstep model in numpy (what LSTM-guided pays per node it expands)."""
+    import numpy as np
+
+    from planners.lstm_inputs import encode_window
+    from planners.lstm_planner import FootstepDistribution, load_model
+
+    net = FootstepDistribution(load_model())
+    terrain, apex, s0, _ = net.inputs(encode_window(TERRAIN, ApexState(*APEX)))
+    state = net.model.initial_state(apex)
+    logits, _ = benchmark(net.model.step, terrain, s0, state)
+    assert logits.shape == (1, 110) and np.all(np.isfinite(logits))

@@ -87,3 +87,18 @@ def test_unknown_planner_on_the_cli(tmp_path):
                           "--planners", "warp", "--out", str(tmp_path / "o.json")],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert run.returncode != 0 and "unknown planner" in run.stderr
+
+
+def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
+    """NAME@VARIANT labels: the same planner with other options, each with its own results and cache key."""
+    suite_path = tmp_path / "suite.json"
+    suite_path.write_text(json.dumps(_doc()))
+    specs = {"heuristic": {}, "heuristic@noshift": {"max_shift": 0.0}}
+    results = evaluation.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
+                                  config=evaluation.EvalConfig(backend="fast"))
+    assert set(results["planners"]) == {"heuristic", "heuristic@noshift"}
+    assert evaluation.planner_name("heuristic@noshift") == "heuristic"
+    suite = load_suite(suite_path)
+    keys = {evaluation.fingerprint(suite, label, opts, evaluation.EvalConfig(), None) for label, opts in specs.items()}
+    assert len(keys) == 2
+    assert "heuristic@noshift" in evaluation.table(results)

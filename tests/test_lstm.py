@@ -38,13 +38,28 @@ def test_rollout_is_a_distribution_and_respects_the_mask():
     assert probs[0, :, 40:60].max() == 0
 
 
-def test_numpy_inference_matches_torch():
+def test_subcell_model_has_bins_and_reads_the_previous_step_per_bin():
+    torch.manual_seed(0)
+    cfg = ModelConfig(subcells=4)
+    model = FootstepModel(cfg).eval()
+    assert cfg.n_bins == 440
+    terrain, apex = torch.randn(1, 110), torch.randn(1, 3)
+    first, second = torch.zeros(1, 1, 440), torch.zeros(1, 1, 440)
+    first[0, 0, 200], second[0, 0, 201] = 1.0, 1.0  # two bins of the same cell
+    a, b = model(terrain, apex, first)[0], model(terrain, apex, second)[0]
+    assert a.shape == (1, 1, 440)
+    assert not torch.allclose(a, b)  # the model tells apart where in a cell the last step was
+
+
+@pytest.mark.parametrize("subcells", [1, 4])
+def test_numpy_inference_matches_torch(subcells):
     torch.manual_seed(1)
-    model = FootstepModel(ModelConfig()).eval()
+    model = FootstepModel(ModelConfig(subcells=subcells)).eval()
+    n = 110 * subcells
     terrain, apex = torch.rand(3, 110) - 0.5, torch.rand(3, 3)
-    s0 = torch.zeros(3, 110)
-    s0[:, 30] = 1.0
-    mask = torch.zeros(3, 110, dtype=torch.bool)
+    s0 = torch.zeros(3, n)
+    s0[:, 30 * subcells] = 1.0
+    mask = torch.zeros(3, n, dtype=torch.bool)
     mask[:, 40:45] = True
     expected = model.rollout(terrain, apex, s0, 5, mask, temperature=1.5).numpy()
     got = NumpyFootstepModel(model).rollout(terrain.double().numpy(), apex.double().numpy(), s0.double().numpy(),
@@ -118,7 +133,8 @@ def test_resumed_generation_loses_nothing(tiny_dataset, tmp_path):
 
 
 def test_dataset_sequences_are_valid(tiny_dataset):
-    data = load_dataset(tiny_dataset)
+    data, subcells = load_dataset(tiny_dataset)
+    assert subcells == 1
     lengths = (data["steps"] >= 0).sum(1)
     assert lengths.min() >= 1
     assert np.all(data["s0"] == 30)
@@ -136,6 +152,40 @@ def test_step_space_sequences_move_forward_and_bad_configs_are_refused():
         DatasetConfig(planner="dijkstra")
     with pytest.raises(ValueError, match="speed_range"):
         DatasetConfig(speed_range=(2.0, 1.0))
+
+
+def test_subcell_labels_are_the_exact_footholds():
+    """With subcells=4 the Step-space data planner's grid is the bins' centres: a label bin gives back its
+    foothold exactly, which is what lets the mode of a sub-cell model replay a planned sequence."""
+    from planners.dataset import instance, instance_sequences, search_tree
+
+    cfg = DatasetConfig(planner="step", subcells=4, min_steps=3, n_terrains=1, apexes_per_terrain=1,
+                        max_nodes=200, seed=4)
+    family, terrain, apex = instance(cfg, 0)
+    enc = encode_window(terrain, apex)
+    result, _ = search_tree(cfg, 0, apex, terrain)
+    footholds = np.concatenate([seq.footholds for seq in result.tree.paths()])
+    assert footholds.size
+    np.testing.assert_allclose(enc.x_of_bin(enc.bin_of(footholds, 4), 4), footholds, atol=1e-9)
+    arrays = instance_sequences(cfg, 0)
+    assert np.all(arrays["s0"] == enc.s0_bin(4)) and 120 <= enc.s0_bin(4) < 124
+    assert arrays["steps"].max() < 440
+    steps, viable = arrays["steps"], arrays["viable"]
+    rows, cols = np.nonzero(steps >= 0)
+    assert np.all(viable[rows, cols, steps[rows, cols]])  # a label is one of its step's viable bins
+    assert not viable[steps < 0].any()
+
+
+def test_soft_targets_spread_over_the_viable_set():
+    from planners.lstm_train import soft_targets
+
+    sets = np.zeros((1, 2, 16), dtype=bool)
+    sets[0, 0, [3, 5, 7]] = True
+    steps = torch.tensor([[5, -1]])
+    q = soft_targets(steps, torch.from_numpy(np.packbits(sets, axis=-1)), 16, 0.5)
+    assert q.shape == (1, 2, 16)
+    assert float(q[0, 0].sum()) == pytest.approx(1.0) and float(q[0, 1].sum()) == 0.0
+    assert float(q[0, 0, 5]) == pytest.approx(0.5 + 0.5 / 3) and float(q[0, 0, 3]) == pytest.approx(0.5 / 3)
 
 
 def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
@@ -175,6 +225,12 @@ def test_learned_planners_with_the_committed_weights():
     assert plan.success, plan.message
     assert plan.ode_calls < planners.make("step").plan(apex, terrain, 10.0, params).ode_calls
     assert guided.plan(apex, terrain, 10.0, params).footholds.tolist() == plan.footholds.tolist()
+    lazy = planners.make("lstm-guided", lazy=True).plan(apex, terrain, 10.0, params)
+    assert lazy.success and lazy.ode_calls <= plan.ode_calls  # one candidate simulated at a time
+    restarted = planners.make("lstm-guided", lazy=True, conditioning="apex").plan(apex, terrain, 10.0, params)
+    assert restarted.success and restarted.ode_calls <= lazy.ode_calls
+    with pytest.raises(ValueError, match="conditioning"):
+        planners.make("lstm-guided", conditioning="future")
     reached = ds.step_batch(apex, plan.leg_angles[:1], terrain, params)
     assert reached.ok[0] and abs(reached.touchdown_x[0] - plan.footholds[0]) < 0.02
 

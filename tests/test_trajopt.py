@@ -154,6 +154,16 @@ def test_segments_and_cold_seed_cover_the_problem(flat_problem):
     assert cold[-1] >= flat_problem.target_x
 
 
+@pytest.mark.parametrize("seed", ["lstm", "lstm-guided"])
+def test_learned_seeds_give_increasing_footholds_to_the_target(seed):
+    from drakeslip import ditch_world
+
+    problem = T.make_problem(APEX, ditch_world(1003), 4.0, PARAMS)
+    footholds = T.seed_footholds(seed, problem)
+    assert footholds.size >= 2 and np.all(np.diff(footholds) > 0)
+    assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
+
+
 def test_config_checks():
     with pytest.raises(ValueError, match="collocation"):
         T.TrajoptConfig(collocation="trapezoid")

@@ -1,0 +1,142 @@
+"""How good is the footstep model as a guide for planning? Three diagnostics (docs/results.md, "The learned
+planners on fresh suites"):
+
+    python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 --weights planners/weights/lstm.pt
+
+1. First step: from each case's start, of the model's probability on the admissible candidate footholds
+   (Step-space's grid after its checks that need no simulation), the share on footholds that work (the hop
+   succeeds on the fast step map and keeps Step-space's minimum speed), and how often the most probable works.
+2. Search: of the candidates each planner simulates, the share that work (Step-space's grid; LSTM-guided,
+   lazy, conditioned on the path or on each node's apex), over one plan from each start.
+3. Greedy oracle, a diagnostic and not a planner: at every step take the most probable foothold that really
+   works from the true apex (checked on the fast step map), in the receding-horizon protocol on the fast
+   backend. Its success rate bounds any planner that follows the model's mode without lookahead.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import sys
+
+import numpy as np
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from drakeslip import ApexState, SlipParams  # noqa: E402
+from planners import make  # noqa: E402
+from planners.base import FootstepSequence, Plan  # noqa: E402
+from planners.evaluation import EvalConfig, perceived, run_case  # noqa: E402
+from planners.lstm_guided import LSTMGuidedPlanner, PathConditionedSampler  # noqa: E402
+from planners.lstm_inference import softmax  # noqa: E402
+from planners.lstm_inputs import encode_window  # noqa: E402
+from planners.lstm_planner import LSTMPlanner  # noqa: E402
+from planners.search import SearchTree  # noqa: E402
+from planners.step_space import StepSpacePlanner  # noqa: E402
+from planners.suite import load_suite  # noqa: E402
+
+
+class Counting:
+    """Mixin for Step-space planners: counts the candidates simulated and those that became children."""
+
+    tried = worked = 0
+
+    def simulate(self, problem, apex, x_l, theta):
+        ok, apexes = super().simulate(problem, apex, x_l, theta)
+        self.tried += int(np.count_nonzero(~np.isnan(theta)))
+        self.worked += int(np.count_nonzero(ok))
+        return ok, apexes
+
+
+class GreedyOracle(LSTMPlanner):
+    """The most probable working foothold at every step, found by simulating (so not zero-ODE: a bound)."""
+
+    def _plan(self, problem):
+        terrain, params = problem.terrain, problem.params
+        enc = encode_window(terrain, problem.apex)
+        window, apex_in, prev, mask = self.net.inputs(enc)
+        state = self.net.model.initial_state(apex_in)
+        checker = StepSpacePlanner(controller=self.controller)
+        apex, footholds, behind = problem.apex, [], -math.inf
+        for _ in range(self.max_steps):
+            logits, state = self.net.model.step(window, prev, state)
+            p = softmax(logits, mask)[0]
+            x_l = checker.candidates(apex, terrain, params, None, problem.window_end)
+            x_l = x_l[x_l > behind]
+            theta = checker.aim(apex, x_l, terrain, params)
+            ok, apexes = checker.simulate(problem, apex, x_l, theta)
+            bins = self.net.bin_of(enc, x_l)
+            score = np.where(ok & (bins >= 0) & (bins < p.size), p[np.clip(bins, 0, p.size - 1)], 0.0)
+            if not score.any():
+                break
+            best = int(np.argmax(score))
+            footholds.append(behind := float(x_l[best]))
+            apex = ApexState(*apexes[best])
+            if behind >= problem.target_x:
+                break
+            prev = np.zeros_like(prev)
+            prev[0, self.net.bin_of(enc, behind)] = 1.0
+        if not footholds:
+            return Plan(self.name, False, problem.target_x, message="no foothold works from here: a dead end")
+        f = np.array(footholds)
+        return Plan(self.name, True, problem.target_x,
+                    sequences=[FootstepSequence(f, np.full(f.size, np.nan), np.full((f.size, 3), np.nan))])
+
+
+def first_step(cases, goal_x, params, weights):
+    """(share of admissible probability on working footholds, share of starts whose mode works)."""
+    guided, grid = make("lstm-guided", weights=weights), make("step")
+    shares, modes = [], []
+    for case in cases:
+        problem = guided.problem(case.apex, perceived(case.terrain, case.apex.x), goal_x, params, 0.0)
+        x_l = grid.candidates(case.apex, problem.terrain, params, None, problem.window_end)
+        theta = grid.aim(case.apex, x_l, problem.terrain, params)
+        ok, _ = grid.simulate(problem, case.apex, x_l, theta)
+        p = PathConditionedSampler(guided.net, problem, 1.0).weights(SearchTree(tuple(case.apex)), 0, x_l)
+        p = np.where(np.isnan(theta), 0.0, p)
+        if p.sum() > 0:
+            shares.append(p[ok].sum() / p.sum())
+            modes.append(bool(ok[np.argmax(p)]))
+    return float(np.mean(shares)), float(np.mean(modes))
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
+    ap.add_argument("--weights", default=None, help="footstep model (default: the committed Table I model)")
+    ap.add_argument("--every", type=int, default=3, help="take every K-th case")
+    args = ap.parse_args(argv)
+    if args.every < 1:
+        ap.error(f"--every must be at least 1, got {args.every}")
+    suite = load_suite(args.suite)
+    cases = suite.cases[::args.every]
+    params = SlipParams(friction=suite.friction)
+    print(f"{suite.name}: {len(cases)} cases, model {args.weights or 'planners/weights/lstm.pt'}")
+
+    share, mode = first_step(cases, suite.goal_x, params, args.weights)
+    print(f"1. first step: {100 * share:.1f} % of the admissible probability on working footholds; "
+          f"the mode works from {100 * mode:.1f} % of the starts")
+
+    print("2. search: share of simulated candidates that work (one plan from each start)")
+    counted = {"Step-space": type("CountingStep", (Counting, StepSpacePlanner), {})(),
+               "LSTM-guided, lazy, path": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
+                   weights=args.weights, lazy=True),
+               "LSTM-guided, lazy, apex": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
+                   weights=args.weights, lazy=True, conditioning="apex")}
+    for label, planner in counted.items():
+        for case in cases:
+            planner.plan(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params)
+        print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
+
+    oracle = GreedyOracle(weights=args.weights)
+    results = [run_case(oracle, oracle.controller, case, suite.goal_x, params, EvalConfig(backend="fast"))
+               for case in cases]
+    failures: dict = {}
+    for r in results:
+        if not r["success"]:
+            failures[r["failure"]] = failures.get(r["failure"], 0) + 1
+    print(f"3. greedy oracle: {100 * np.mean([r['success'] for r in results]):.1f} % reach the goal; "
+          f"failures {failures}")
+
+
+if __name__ == "__main__":
+    main()
