@@ -26,6 +26,15 @@ def atomic_write(path, mode: str = "wb"):
         raise
 
 
+def read_json(path, what: str):
+    """The JSON document in ``path``; one that does not parse raises ValueError naming ``what`` and the file."""
+    path = Path(path)
+    try:
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{what} {path} is not valid JSON: {exc}") from exc
+
+
 def read_jsonl_cache(path, key_of, value_of) -> dict:
     """{key_of(entry): value_of(entry)} over the JSON lines of ``path`` (empty if it does not exist). A resumable
     job appends one line per finished item; a line cut short by a kill, or one missing a field, is skipped."""

@@ -123,9 +123,9 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
         siblings.setdefault(tree.parent[node], []).append(node)
     steps, viable = [], []
     for leaf in tree.leaves():
-        nodes = _path_nodes(tree, leaf)
+        nodes = tree.branch(leaf)
         footholds = np.array([tree.foothold[n] for n in nodes])
-        if nodes.size < cfg.min_steps or footholds[-1] < need:
+        if len(nodes) < cfg.min_steps or footholds[-1] < need:
             continue
         bins = enc.bin_of(footholds[:cfg.max_steps], cfg.subcells)
         inside = (bins >= 0) & (bins < n_bins)
@@ -150,14 +150,6 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
             "s0": np.full(n, enc.s0_bin(cfg.subcells), dtype=np.int16), "steps": padded, "viable": sets,
             "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
 
-
-def _path_nodes(tree, leaf: int) -> np.ndarray:
-    """The nodes from the root's first child to ``leaf``."""
-    nodes = []
-    while leaf > 0:
-        nodes.append(leaf)
-        leaf = tree.parent[leaf]
-    return np.array(nodes[::-1], dtype=np.int64)
 
 
 def shard_path(folder: str, k: int) -> str:

@@ -11,12 +11,11 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
-from drakeslip.files import atomic_write
+from drakeslip.files import atomic_write, read_json
 from drakeslip.terrain import DITCH_HEIGHT, TERRAIN_FAMILIES
 
 from .base import Plan
@@ -121,12 +120,7 @@ def save_plan(path, plan: Plan, apex, terrain, goal_x: float, params: SlipParams
 
 def load_plan(path) -> PlanRecord:
     """Read a plan file; a malformed one raises ValueError naming the file and the bad field."""
-    path = Path(path)
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"plan file {path} is not valid JSON: {exc}") from exc
-    return PlanRecord.from_dict(d, source=f"plan file {path}")
+    return PlanRecord.from_dict(read_json(path, "plan file"), source=f"plan file {path}")
 
 
 def _terrain(spec) -> Terrain:

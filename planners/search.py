@@ -81,13 +81,17 @@ class SearchTree:
         self.depth.extend([self.depth[parent] + 1] * k)
         return range(first, first + k)
 
-    def path(self, node: int) -> FootstepSequence:
-        """The sequence from the root to ``node``."""
+    def branch(self, node: int) -> list[int]:
+        """The nodes from the root's child on the way to ``node`` through ``node`` itself."""
         nodes = []
         while node > 0:
             nodes.append(node)
             node = self.parent[node]
-        nodes.reverse()
+        return nodes[::-1]
+
+    def path(self, node: int) -> FootstepSequence:
+        """The sequence from the root to ``node``."""
+        nodes = self.branch(node)
         return FootstepSequence(np.array([self.foothold[i] for i in nodes]),
                                 np.array([self.angle[i] for i in nodes]),
                                 np.array([self.apex[i] for i in nodes]).reshape(-1, 3))

@@ -4,10 +4,9 @@ from __future__ import annotations
 import json
 import math
 from dataclasses import dataclass
-from pathlib import Path
 
 from drakeslip import ApexState, Terrain
-from drakeslip.files import atomic_write
+from drakeslip.files import atomic_write, read_json
 from drakeslip.terrain import TERRAIN_FAMILIES
 
 SUITE_FORMAT = "drakeslip-suite/1"
@@ -126,9 +125,4 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
 
 
 def load_suite(path) -> Suite:
-    path = Path(path)
-    try:
-        d = json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"suite file {path} is not valid JSON: {exc}") from exc
-    return suite_from_dict(d, source=f"suite file {path}")
+    return suite_from_dict(read_json(path, "suite file"), source=f"suite file {path}")
