@@ -118,6 +118,7 @@ def summarize(cases: list) -> dict:
     times = [p["t_plan_s"] for p in calls]
     return {"success_rate": sum(c["success"] for c in cases) / len(cases) if cases else 0.0,
             "ode_calls_mean": statistics.fmean(p["ode_calls"] for p in calls) if calls else 0.0,
+            "ode_calls_median": statistics.median(p["ode_calls"] for p in calls) if calls else 0.0,
             "t_plan_mean_s": statistics.fmean(times) if times else 0.0,
             "t_plan_median_s": statistics.median(times) if times else 0.0,
             "cases": cases}
@@ -127,10 +128,11 @@ def table(results: dict) -> str:
     """A text table like the paper's Tables II/III."""
     w = max([12] + [len(name) for name in results["planners"]])
     rows = [f"Results on {results['suite']}",
-            f"{'Planner':<{w}} {'Success %':>9} {'ODE calls':>10} {'t_plan mean':>12} {'t_plan median':>14} "
-            f"{'cases':>6}"]
+            f"{'Planner':<{w}} {'Success %':>9} {'ODE calls':>10} {'ODE median':>10} {'t_plan mean':>12} "
+            f"{'t_plan median':>14} {'cases':>6}"]
     for name, r in results["planners"].items():
         rows.append(f"{name:<{w}} {100 * r['success_rate']:>9.1f} {r['ode_calls_mean']:>10.0f} "
+                    f"{r['ode_calls_median']:>10.0f} "
                     f"{r['t_plan_mean_s']:>11.2g}s {r['t_plan_median_s']:>13.2g}s {len(r['cases']):>6}")
     return "\n".join(rows)
 

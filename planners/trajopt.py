@@ -81,6 +81,8 @@ from .base import FootstepSequence, Plan, Planner, Problem
 from .registry import register
 
 SEEDS = ("cold", "heuristic", "step", "lstm", "lstm-guided")
+MULTI_START = ("cold", "lstm-guided")  # seeds with more than one start: other strides, other samples
+COLD_STRIDES = (0, 1, -1, 2, -2)       # the cold seed's k-th start: this many hops more than the nominal gait
 COLLOCATIONS = ("chebyshev", "hermite-simpson")
 EDGE_SCALE = 0.05    # [m]   distance to an edge at which the edge cost of a foothold is 1
 ANGLE_SCALE = 0.1    # [rad] change in leg angle between hops that costs 1
@@ -125,6 +127,9 @@ class TrajoptConfig:
     lstm_weights: str | None = None  # checkpoint for the lstm seeds (default: the planners' committed one)
     solver_options: tuple = ()       # extra (name, value) pairs for the solver
     retry: bool = True               # no convergence from the re-anchored guess: try the chained one too
+    starts: int = 1                  # starts per query for MULTI_START seeds, until one is verified
+    polish_violation: float = 0.05   # an unconverged point this close to feasible (max violation) is solved
+                                     # once more from itself (0 turns the restart off)
     major_iterations: int = 400
     optimality_tolerance: float = 1e-5
     feasibility_tolerance: float = 1e-7
@@ -135,6 +140,8 @@ class TrajoptConfig:
     def __post_init__(self):
         if not (isinstance(self.knots, int) and self.knots >= 2):
             raise ValueError(f"knots must be an integer >= 2, got {self.knots!r}")
+        if not (isinstance(self.starts, int) and 1 <= self.starts <= len(COLD_STRIDES)):
+            raise ValueError(f"starts must be an integer in 1..{len(COLD_STRIDES)}, got {self.starts!r}")
         if not (isinstance(self.max_hops, int) and self.max_hops >= 1):
             raise ValueError(f"max_hops must be a positive integer, got {self.max_hops!r}")
         if not (isinstance(self.flight_samples, int) and self.flight_samples >= 1):
@@ -145,7 +152,7 @@ class TrajoptConfig:
             raise ValueError(f"solver must be 'snopt' or 'ipopt', got {self.solver!r}")
         if not 0 < self.friction_fraction <= 1:
             raise ValueError(f"friction_fraction must lie in (0, 1], got {self.friction_fraction!r}")
-        for name in ("edge_margin", "stroke_margin", "clearance", "target_margin"):
+        for name in ("edge_margin", "stroke_margin", "clearance", "target_margin", "polish_violation"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be non-negative, got {getattr(self, name)!r}")
 
@@ -408,10 +415,11 @@ def max_heights(terrain: Terrain, a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 # ---- seeds -------------------------------------------------------------------------------------------------
 
-def cold_footholds(problem: Problem) -> np.ndarray:
+def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     """A nominal uniform gait: the first foothold at the neutral point of the start apex on the ground under it,
     then equal steps (about the neutral gait's stride at the start speed) to COLD_OVERSHOOT past the target,
-    on whatever segments those land."""
+    on whatever segments those land. ``extra_hops`` more (or fewer, down to two footholds) equal steps cover the
+    same distance."""
     from .heuristic import _interp, neutral_gait
 
     apex, terrain = problem.apex, problem.terrain
@@ -420,18 +428,19 @@ def cold_footholds(problem: Problem) -> np.ndarray:
     first = apex.x + _interp(offsets, apex.xdot, drop)
     stride = _interp(advances, apex.xdot, drop)
     last = max(problem.target_x + COLD_OVERSHOOT, first)
-    n = 1 + max(0, math.ceil((last - first) / stride - 1e-9))
+    nominal = 1 + max(0, math.ceil((last - first) / stride - 1e-9))
+    n = max(nominal + extra_hops, min(nominal, 2))  # fewer hops, but still from the first foothold to the last
     return first + (last - first) * np.arange(n) / max(n - 1, 1)
 
 
 @functools.cache
-def _seed_planner(name: str, max_hops: int, lstm_weights: str | None = None):
+def _seed_planner(name: str, max_hops: int, lstm_weights: str | None = None, sample: int = 0):
     import planners
 
     if name == "lstm":  # the model's modes, fed back, for as many steps as the optimization takes
         return planners.make(name, controller=_controller(), max_steps=max_hops, weights=lstm_weights)
     if name == "lstm-guided":  # footholds sampled from the model, each hop checked on the fast step map
-        return planners.make(name, controller=_controller(), weights=lstm_weights)
+        return planners.make(name, controller=_controller(), weights=lstm_weights, seed=sample)
     if name == "step":
         return planners.make(name, controller=_controller())
     return planners.make(name)
@@ -445,16 +454,20 @@ def _controller():
 
 
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
-                   lstm_weights: str | None = None) -> np.ndarray:
+                   lstm_weights: str | None = None, sample: int = 0) -> np.ndarray:
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
-    past the target. ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model)."""
+    past the target. ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model).
+    ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops, the
+    LSTM-guided search with sampling seed ``sample``)."""
     if name not in SEEDS:
         raise ValueError(f"unknown seed {name!r}; known seeds: {', '.join(SEEDS)}")
+    if sample and name not in MULTI_START:
+        raise ValueError(f"the {name} seed has one start; sample {sample!r} asked for another")
     if name == "cold":
-        footholds = cold_footholds(problem)
+        footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
         weights = str(lstm_weights) if lstm_weights and name.startswith("lstm") else None
-        planner = _seed_planner(name, max_hops, weights)
+        planner = _seed_planner(name, max_hops, weights, sample)
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")
@@ -638,6 +651,7 @@ class TrajoptResult:
     durations: np.ndarray
     max_violation: float
     violations: dict
+    x: np.ndarray | None = None   # the solver's last point, every decision variable
 
     def summary(self) -> dict:
         return {"converged": self.converged, "solver": self.solver, "status": self.status,
@@ -923,12 +937,13 @@ class SlipTrajopt:
             out[name] = max(worst, 0.0)
         return out
 
-    def solve(self, guess: Guess, print_file=None) -> TrajoptResult:
-        """Solve from ``guess``; ``print_file``: keep the solver's log there."""
+    def solve(self, guess: Guess | np.ndarray, print_file=None) -> TrajoptResult:
+        """Solve from ``guess`` (or a decision-variable vector, such as a previous result's ``x``);
+        ``print_file``: keep the solver's log there."""
         from pydrake.solvers import (CommonSolverOption, IpoptSolver, SnoptSolver, SolverOptions)
 
         cfg = self.config
-        x0 = self.guess_vector(guess)
+        x0 = np.asarray(guess, dtype=np.float64) if isinstance(guess, np.ndarray) else self.guess_vector(guess)
         use_snopt = cfg.solver == "snopt" and SnoptSolver().available() and SnoptSolver().enabled()
         solver = SnoptSolver() if use_snopt else IpoptSolver()
         options = SolverOptions()
@@ -982,7 +997,7 @@ class SlipTrajopt:
                              status=status, iterations=iterations, solve_time_s=solve_time,
                              build_time_s=self.build_time_s, cost=float(result.get_optimal_cost()),
                              leg_angles=val(self.theta), footholds=val(self.foot), apexes=apexes,
-                             durations=val(self.dur), max_violation=max(viol.values()), violations=viol)
+                             durations=val(self.dur), max_violation=max(viol.values()), violations=viol, x=x)
 
 
 # ---- verification and the whole pipeline ------------------------------------------------------------------
@@ -1019,16 +1034,47 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
     same) what the solution is verified on. Returns a JSON-ready record: ``converged`` (the solver found a
     locally optimal, feasible point), ``drake_ok`` (its leg angles pass ``verify``) and ``verified`` (both: a
     plan the optimizer stands by and Drake confirms). A seed that gives nothing to optimize is reported with
-    ``error`` set, not raised. The solver starts from the re-anchored guess (``build_guess``); when that does
-    not converge and the seed did not execute as it is, it starts once more from the chained guess
-    (``config.retry``); ``solve_time_s`` and ``iterations`` add up both attempts."""
+    ``error`` set, not raised.
+
+    With ``config.starts`` > 1 a named seed that can propose more than one start (``MULTI_START``) is tried
+    again from its next start until one is verified (converged, without Drake): the record is the last start's,
+    with ``starts`` listing every start's outcome and ``seed_time_s``, ``solve_time_s`` and ``iterations``
+    adding up all of them."""
     config = config or TrajoptConfig()
+    n = config.starts if isinstance(seed, str) and seed in MULTI_START else 1
+    starts = []
+    for sample in range(n):
+        record = _optimize_start(problem, seed, sample, config, true_terrain, verify_on_drake)
+        starts.append(record)
+        if record["verified"] or (record["converged"] and not verify_on_drake):
+            break
+    if n == 1:
+        return record
+    record = dict(record)
+    record["seed_time_s"] = sum(r.get("seed_time_s", 0.0) for r in starts)
+    solved = [r for r in starts if r.get("solve_time_s") is not None]
+    if solved:
+        record["solve_time_s"] = sum(r["solve_time_s"] for r in solved)
+        record["iterations"] = (None if any(r["iterations"] is None for r in solved)
+                                else sum(r["iterations"] for r in solved))
+    record["starts"] = [{"sample": k, "error": r["error"], "converged": r["converged"], "verified": r["verified"],
+                         "status": r.get("status"), "solve_time_s": r.get("solve_time_s"),
+                         "iterations": r.get("iterations")} for k, r in enumerate(starts)]
+    return record
+
+
+def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, true_terrain, verify_on_drake):
+    """One start of ``optimize``. The solver starts from the re-anchored guess (``build_guess``); when that does
+    not converge and the seed did not execute as it is, it starts once more from the chained guess
+    (``config.retry``). A last attempt that stops unconverged but within ``config.polish_violation`` of feasible
+    (SNOPT's "numerical difficulties" or its iteration limit, typically) is restarted from its own point, with a
+    fresh Hessian approximation. ``solve_time_s`` and ``iterations`` add up every attempt."""
     record = {"seed": seed if isinstance(seed, str) else "footholds", "target_x": problem.target_x,
               "converged": False, "verified": False, "error": None}
     t0 = time.perf_counter()
     try:
-        footholds = (seed_footholds(seed, problem, config.max_hops, config.lstm_weights) if isinstance(seed, str)
-                     else np.asarray(seed, dtype=np.float64).reshape(-1))
+        footholds = (seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample)
+                     if isinstance(seed, str) else np.asarray(seed, dtype=np.float64).reshape(-1))
     except TrajoptError as exc:
         record.update(error=str(exc), seed_time_s=time.perf_counter() - t0)
         return record
@@ -1055,6 +1101,10 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
                          "solve_time_s": result.solve_time_s})
         if result.converged or guess.fast_ok or not config.retry:  # (a seed that executes has one guess)
             break
+    if not result.converged and result.max_violation <= config.polish_violation:
+        result = program.solve(result.x)
+        attempts.append({"guess": "polish", "converged": result.converged, "status": result.status,
+                         "iterations": result.iterations, "solve_time_s": result.solve_time_s})
     record.update(result.summary())
     # what the query cost: every attempt's solver time and iterations
     record["solve_time_s"] = sum(a["solve_time_s"] for a in attempts)

@@ -152,6 +152,51 @@ def test_segments_and_cold_seed_cover_the_problem(flat_problem):
     steps = np.diff(cold)
     assert np.all(steps > 0) and steps == pytest.approx(np.full(steps.size, steps[0]))
     assert cold[-1] >= flat_problem.target_x
+    # the cold seed's other starts: the same span in more or fewer equal steps
+    for sample, extra in enumerate(T.COLD_STRIDES):
+        other = T.seed_footholds("cold", flat_problem, sample=sample)
+        assert other.size == max(cold.size + extra, 2)
+        assert (other[0], other[-1]) == pytest.approx((cold[0], cold[-1]))
+    with pytest.raises(ValueError, match="the step seed has one start; sample 1"):
+        T.seed_footholds("step", flat_problem, sample=1)
+
+
+def test_a_start_that_is_not_verified_is_followed_by_the_next(flat_problem, monkeypatch):
+    """starts > 1: optimize tries the seed's next start until one is verified; the record is that start's,
+    its costs add up every start, and a seed with one start is not repeated."""
+    calls = []
+
+    def fake_start(problem, seed, sample, config, true_terrain, verify_on_drake):
+        calls.append((seed, sample))
+        ok = sample == 1
+        return {"seed": seed, "converged": ok, "verified": ok, "error": None, "status": f"start {sample}",
+                "seed_time_s": 0.5, "solve_time_s": 2.0, "iterations": 10}
+
+    monkeypatch.setattr(T, "_optimize_start", fake_start)
+    record = T.optimize(flat_problem, "lstm-guided", T.TrajoptConfig(starts=3))
+    assert calls == [("lstm-guided", 0), ("lstm-guided", 1)]
+    assert record["verified"] and record["status"] == "start 1"
+    assert [s["verified"] for s in record["starts"]] == [False, True]
+    assert (record["seed_time_s"], record["solve_time_s"], record["iterations"]) == (1.0, 4.0, 20)
+    calls.clear()
+    record = T.optimize(flat_problem, "step", T.TrajoptConfig(starts=3))
+    assert calls == [("step", 0)] and "starts" not in record
+
+
+def test_an_unconverged_point_near_feasible_is_polished_to_convergence(flat_problem):
+    """A solve cut short (here by a 3-iteration limit) ends near feasible; solving again from its own point
+    (what optimize does for SNOPT's numerical difficulties) reaches the same optimum as an uncut solve."""
+    footholds = T.cold_footholds(flat_problem)
+    segs = T.assign_segments(flat_problem.terrain, footholds, 0.03, flat_problem.window_end)
+    guess = T.build_guess(flat_problem.apex, footholds, segs, flat_problem.terrain, PARAMS,
+                          T.TrajoptConfig().node_times())
+    short = T.SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x,
+                          T.TrajoptConfig(major_iterations=3)).solve(guess)
+    assert not short.converged and short.x.shape == (short.x.size,)
+    full = T.SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x)
+    polished, direct = full.solve(short.x), full.solve(guess)
+    assert polished.converged and direct.converged
+    assert polished.cost == pytest.approx(direct.cost, rel=1e-3, abs=1e-4)
 
 
 @pytest.mark.parametrize("seed", ["lstm", "lstm-guided"])
@@ -169,6 +214,10 @@ def test_config_checks():
         T.TrajoptConfig(collocation="trapezoid")
     with pytest.raises(ValueError, match="solver"):
         T.TrajoptConfig(solver="gurobi")
+    with pytest.raises(ValueError, match="starts must be an integer in 1..5, got 0"):
+        T.TrajoptConfig(starts=0)
+    with pytest.raises(ValueError, match="polish_violation must be non-negative"):
+        T.TrajoptConfig(polish_violation=-1.0)
 
 
 def test_as_a_planner_it_returns_the_optimized_plan():
