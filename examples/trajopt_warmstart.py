@@ -9,8 +9,8 @@ Each case is one planning query, the perception-window problem of the case's sta
 window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/trajopt.py); the optimized leg
 angles are simulated open loop on the Drake hybrid simulator on the true terrain. ``verified`` = the solver
 converged and Drake completes all N hops with no failure, past the target. Finished cases are cached in
-OUT.cases.jsonl (keyed by the optimizer's source, its settings and the LSTM checkpoint), so a killed run
-continues where it stopped (--no-resume starts over).
+OUT.cases.jsonl (keyed by the source and weights of drakeslip and planners, the settings and the LSTM checkpoint),
+so a killed run continues where it stopped (--no-resume starts over).
 """
 from __future__ import annotations
 
@@ -35,6 +35,21 @@ from planners.suite import load_suite
 from planners.trajopt import SEEDS, TrajoptConfig, make_problem, optimize
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
+
+
+def source_digest() -> str:
+    """A digest of the packages' source and committed weights: a changed optimizer, seed planner, model or
+    controller must not reuse cached cases."""
+    import drakeslip
+    import planners
+
+    h = hashlib.sha256()
+    for package in (Path(drakeslip.__file__).parent, Path(planners.__file__).parent):
+        for f in sorted(package.rglob("*")):
+            if f.suffix in (".py", ".pt") and "__pycache__" not in f.parts:
+                h.update(f.relative_to(package.parent).as_posix().encode())
+                h.update(f.read_bytes())
+    return h.hexdigest()[:12]
 
 
 def summarize(cases: list) -> dict:
@@ -115,9 +130,7 @@ def main(argv=None):
     if args.lstm_weights:  # a retrained checkpoint at the same path must not reuse cached lstm cases
         st = Path(args.lstm_weights).stat()
         weights_stamp = f"{st.st_size}:{st.st_mtime_ns}"
-    import planners.trajopt as trajopt_module  # a changed optimizer must not reuse cached cases either
-
-    code = hashlib.sha256(Path(trajopt_module.__file__).read_bytes()).hexdigest()[:12]
+    code = source_digest()
     setup = json.dumps([asdict(config), weights_stamp, code, suite.goal_x, suite.friction], sort_keys=True,
                        default=str)
     key = lambda seed, case: hashlib.sha256(

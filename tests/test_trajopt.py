@@ -227,3 +227,32 @@ def test_as_a_planner_it_returns_the_optimized_plan():
     assert plan.success, plan.message
     assert len(plan.footholds) == len(plan.leg_angles) == len(plan.apexes) >= 2
     assert np.all(np.isfinite(plan.leg_angles)) and plan.apexes[-1][0] >= plan.target_x
+
+
+def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
+    """examples/trajopt_warmstart.py on a one-case suite: the issue's JSON format, a verified cold start, a
+    rerun served from the case cache, and a bad --starts refused with the bad value named."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from drakeslip import ApexState
+    from planners.suite import Case, Suite, save_suite
+
+    root = Path(__file__).resolve().parents[1]
+    suite_path, out = tmp_path / "flat.json", tmp_path / "out.json"
+    save_suite(Suite("flat", 1.5, 0.8, (Case("flat-v2", Terrain.flat(), ApexState(-1.0, 1.0, 2.0)),)), suite_path)
+    cmd = [sys.executable, str(root / "examples" / "trajopt_warmstart.py"), "--suite", str(suite_path),
+           "--seeds", "cold", "--starts", "2", "--out", str(out), "--quiet"]
+    runs = [subprocess.run(cmd, capture_output=True, text=True, cwd=root, timeout=300) for _ in range(2)]
+    assert all(r.returncode == 0 for r in runs), runs[0].stderr
+    block = json.loads(out.read_text())["seeds"]["cold"]
+    assert {"converged_rate", "verified_rate", "first_start_verified_rate", "solve_time_median_s",
+            "iterations_median", "cases"} <= set(block)
+    assert block["verified_rate"] == block["first_start_verified_rate"] == 1.0
+    assert len(block["cases"]) == 1 and block["cases"][0]["id"] == "flat-v2"
+    assert len(Path(str(out) + ".cases.jsonl").read_text().splitlines()) == 1   # the rerun solved nothing
+    bad = subprocess.run(cmd[:-5] + ["--starts", "9", "--out", str(out)], capture_output=True, text=True,
+                         cwd=root, timeout=120)
+    assert bad.returncode == 2 and "starts must be an integer in 1..5, got 9" in bad.stderr
