@@ -53,10 +53,12 @@ Progress is the only term that rewards distance, normalized so that reaching the
 Initial guess (``build_guess``): the seed's footholds executed by the controller on the fast step map, as the
 seed's plan would be, which fixes every variable; where a hop fails or misses its foothold the guess re-anchors
 the next apex on the footholds (energy-consistent), and if the solver does not converge from that guess it
-tries once more with the plain chained one. The solver is SNOPT (IPOPT when SNOPT is unavailable, or asked
-for); major iterations are read from the solver's print file. Every solution is checked by simulating its leg angles open loop on the Drake hybrid
+tries once more with the plain chained one; a stop close to feasible is solved once more from its own point
+(polish). The solver is SNOPT (IPOPT when SNOPT is unavailable, or asked for); major iterations are read from
+the solver's print file. Every solution is checked by simulating its leg angles open loop on the Drake hybrid
 simulator (``drakeslip.simulate``) on the true terrain (``verify``): no failure in its N hops and the last apex
-past the target.
+past the target. With several starts (``TrajoptConfig.starts``) the cold and LSTM-guided seeds propose new
+footholds (other strides, other samples) until a start is verified.
 """
 from __future__ import annotations
 
@@ -1101,7 +1103,7 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
                          "solve_time_s": result.solve_time_s})
         if result.converged or guess.fast_ok or not config.retry:  # (a seed that executes has one guess)
             break
-    if not result.converged and result.max_violation <= config.polish_violation:
+    if not result.converged and 0 < config.polish_violation and result.max_violation <= config.polish_violation:
         result = program.solve(result.x)
         attempts.append({"guess": "polish", "converged": result.converged, "status": result.status,
                          "iterations": result.iterations, "solve_time_s": result.solve_time_s})
