@@ -26,7 +26,8 @@ from planners.suite import load_suite
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--planners", default="heuristic,angle,step", help=f"comma-separated, of {available()}, each optionally NAME@VARIANT")
+    ap.add_argument("--planners", default="heuristic,angle,step",
+                    help=f"comma-separated, of {available()}, each optionally NAME@VARIANT")
     ap.add_argument("--cases", type=int, default=None, help="only the first N cases")
     ap.add_argument("--out", required=True, help="results JSON (written atomically)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import argparse
 import math
+from collections import Counter
 import os
 import sys
 
@@ -50,12 +51,15 @@ class Counting:
 class GreedyOracle(LSTMPlanner):
     """The most probable working foothold at every step, found by simulating (so not zero-ODE: a bound)."""
 
+    def __init__(self, **options):
+        super().__init__(**options)
+        self.checker = StepSpacePlanner(controller=self.controller)  # its candidates, checks and simulation
+
     def _plan(self, problem):
-        terrain, params = problem.terrain, problem.params
+        terrain, params, checker = problem.terrain, problem.params, self.checker
         enc = encode_window(terrain, problem.apex)
         window, apex_in, prev, mask = self.net.inputs(enc)
         state = self.net.model.initial_state(apex_in)
-        checker = StepSpacePlanner(controller=self.controller)
         apex, footholds, behind = problem.apex, [], -math.inf
         for _ in range(self.max_steps):
             logits, state = self.net.model.step(window, prev, state)
@@ -130,12 +134,9 @@ def main(argv=None):
     oracle = GreedyOracle(weights=args.weights)
     results = [run_case(oracle, oracle.controller, case, suite.goal_x, params, EvalConfig(backend="fast"))
                for case in cases]
-    failures: dict = {}
-    for r in results:
-        if not r["success"]:
-            failures[r["failure"]] = failures.get(r["failure"], 0) + 1
+    failures = Counter(r["failure"] for r in results if not r["success"])
     print(f"3. greedy oracle: {100 * np.mean([r['success'] for r in results]):.1f} % reach the goal; "
-          f"failures {failures}")
+          f"failures {dict(failures)}")
 
 
 if __name__ == "__main__":

@@ -76,11 +76,11 @@ def table(results: dict) -> str:
     fmt = lambda v, spec: "-" if v is None else format(v, spec)
     rows = [f"Trajectory optimization on {results['suite']} ({results['cases_n']} cases)",
             f"{'seed':<11} {'converged %':>11} {'verified %':>10} {'1st start %':>11} {'drake ok %':>10} "
-            f"{'seed ok %':>9} "
-            f"{'no seed':>7} {'solve median':>12} {'iters median':>12} {'hops median':>11}"]
+            f"{'seed ok %':>9} {'no seed':>7} {'solve median':>12} {'iters median':>12} {'hops median':>11}"]
     for name, r in results["seeds"].items():
         rows.append(f"{name:<11} {100 * r['converged_rate']:>11.1f} {100 * r['verified_rate']:>10.1f} "
-                    f"{100 * r['first_start_verified_rate']:>11.1f} {100 * r['drake_ok_rate']:>10.1f} {100 * r['seed_fast_ok_rate']:>9.1f} {r['seed_errors']:>7d} "
+                    f"{100 * r['first_start_verified_rate']:>11.1f} {100 * r['drake_ok_rate']:>10.1f} "
+                    f"{100 * r['seed_fast_ok_rate']:>9.1f} {r['seed_errors']:>7d} "
                     f"{fmt(r['solve_time_median_s'], '.2f'):>11}s {fmt(r['iterations_median'], 'g'):>12} "
                     f"{fmt(r['hops_median'], 'g'):>11}")
     rows.append("verified: converged and Drake completes the hops open loop past the target (by any start); "
@@ -105,7 +105,8 @@ def main(argv=None):
                     help="starts per case for the seeds that have several (cold: other strides; lstm-guided: other "
                          "samples), tried until one is verified")
     ap.add_argument("--solver", default="snopt", choices=("snopt", "ipopt"))
-    ap.add_argument("--lstm-weights", default=None, help="checkpoint for the lstm and lstm-guided seeds (default: the committed one)")
+    ap.add_argument("--lstm-weights", default=None,
+                    help="checkpoint for the lstm and lstm-guided seeds (default: the committed one)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)

@@ -5,8 +5,9 @@ Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and
 least ``min_steps`` footholds that covers at least ``min_progress`` of the distance to the search target becomes a
 sequence: the encoded perception window at the initial apex and the window cells of its footholds. With every
 step goes its viable set, the cells of all the footholds the search found viable from the same apex (the step's
-siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight). Instances are grouped into shards; each shard is
-written atomically as one .npz, so an interrupted run resumes by skipping the shards already on disk.
+siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight). Instances are grouped
+into shards; each shard is written atomically as one .npz, so an interrupted run resumes by skipping the shards
+already on disk.
 """
 from __future__ import annotations
 
@@ -22,7 +23,7 @@ from drakeslip.files import atomic_write
 
 from .angle_space import AngleSpacePlanner
 from .step_space import StepSpacePlanner
-from .lstm_inputs import encode_window
+from .lstm_inputs import encode_window, pad_steps
 
 
 @dataclass(frozen=True)
@@ -151,7 +152,6 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
             "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
 
 
-
 def shard_path(folder: str, k: int) -> str:
     return os.path.join(folder, f"shard_{k:05d}.npz")
 
@@ -166,12 +166,10 @@ def write_shard(cfg: DatasetConfig, k: int, folder: str) -> dict:
         "terrain": np.concatenate([p["terrain"] for p in parts]).reshape(-1, 110).astype(np.float32),
         "apex": np.concatenate([p["apex"] for p in parts]).reshape(-1, 3).astype(np.float32),
         "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int16),
-        "steps": np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
-                                 for p in parts]).astype(np.int16),
+        "steps": np.concatenate([pad_steps(p["steps"], t_max, -1) for p in parts]).astype(np.int16),
         "subcells": np.array(cfg.subcells, dtype=np.int16),  # bins per cell of s0 and steps
         # viable[j, i]: bit b set if the search found bin b viable for step i (its siblings), packed along bins
-        "viable": np.packbits(np.concatenate([np.pad(p["viable"], ((0, 0), (0, t_max - p["viable"].shape[1]), (0, 0)))
-                                              for p in parts]), axis=-1),
+        "viable": np.packbits(np.concatenate([pad_steps(p["viable"], t_max) for p in parts]), axis=-1),
     }
     with atomic_write(shard_path(folder, k)) as f:
         np.savez_compressed(f, **arrays)

@@ -156,14 +156,14 @@ def _init_worker(planner_specs: dict, controller_path, refine: bool):
                                             else {}), **opts) for label, opts in planner_specs.items()}
 
 
-def _run_task(planner_name: str, case_dict: dict, goal_x: float, friction: float, config: EvalConfig):
+def _run_task(label: str, case_dict: dict, goal_x: float, friction: float, config: EvalConfig):
     from .suite import suite_from_dict
 
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "task", "goal_x": goal_x,
                              "friction": friction, "cases": [case_dict]})
-    result = run_case(_WORKER["planners"][planner_name], _WORKER["controller"], suite.cases[0], goal_x,
+    result = run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x,
                       SlipParams(friction=friction), config)
-    return planner_name, result
+    return label, result
 
 
 def _digest(path) -> str:

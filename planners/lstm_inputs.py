@@ -20,13 +20,6 @@ class WindowEncoding:
     cell: float
     ditch: np.ndarray     # (n,) bool: ditch cells (no foothold possible)
 
-    def cell_of(self, x) -> np.ndarray:
-        return np.floor((np.asarray(x, dtype=np.float64) - self.x_start) / self.cell).astype(np.int64)
-
-    def x_of(self, cells) -> np.ndarray:
-        """Centre of each cell, world x."""
-        return self.x_start + (np.asarray(cells, dtype=np.float64) + 0.5) * self.cell
-
     def bin_of(self, x, subcells: int = 1) -> np.ndarray:
         """The model's output bin of each x: the cell split into ``subcells`` equal parts (1: the cell)."""
         return np.floor((np.asarray(x, dtype=np.float64) - self.x_start) / (self.cell / subcells)).astype(np.int64)
@@ -38,6 +31,12 @@ class WindowEncoding:
     def s0_bin(self, subcells: int = 1) -> int:
         """The bin under the body (``s0``): its cell, and the part of it the body's offset falls in."""
         return self.s0 * subcells + min(int(float(self.apex[2]) * subcells), subcells - 1)
+
+
+def pad_steps(a: np.ndarray, t: int, fill=0) -> np.ndarray:
+    """``a`` (N, T, ...) padded along its step axis to ``t`` steps with ``fill`` (sequences of several lengths
+    stored as one array)."""
+    return np.pad(a, ((0, 0), (0, t - a.shape[1])) + ((0, 0),) * (a.ndim - 2), constant_values=fill)
 
 
 def reference_height(window_heights: np.ndarray, s0: int, ditch_height: float) -> float:

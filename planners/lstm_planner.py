@@ -72,10 +72,10 @@ class LSTMPlanner(Planner):
 
     The mode is taken over footholds the hopper can use, on a quarter-cell grid (the bins of a 4-bin sub-cell
     model; a per-cell model's probabilities interpolated between cell centres, so a mode next to a ditch
-    slides away from its edge): ahead of the
-    previous foothold, on solid ground at least ``edge_margin`` from an edge, and, for the first step, reached
-    by the controller inside the friction cone. The paper reports that its mode often failed on exactly these
-    two counts (friction cone, edges); both can be checked without simulating."""
+    slides away from its edge): ahead of the previous foothold, on solid ground at least ``edge_margin`` from
+    an edge, and, for the first step, reached by the controller inside the friction cone. The paper reports
+    that its mode often failed on exactly these two counts (friction cone, edges); both can be checked without
+    simulating."""
 
     def __init__(self, weights=None, max_steps: int = 12, mask_ditches: bool = True,
                  controller: StepLengthController | None = None, edge_margin: float = EDGE_MARGIN,

@@ -17,6 +17,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
+from .lstm_inputs import pad_steps
 from .lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkpoint
 
 
@@ -45,15 +46,13 @@ def load_dataset(folder: str, max_sequences: int = 0) -> tuple[dict, int]:
         raise ValueError(f"no dataset shards (*.npz) in {folder}")
     parts = [np.load(os.path.join(folder, f)) for f in files]
     t_max = max(p["steps"].shape[1] for p in parts)
-    steps = np.concatenate([np.pad(p["steps"], ((0, 0), (0, t_max - p["steps"].shape[1])), constant_values=-1)
-                            for p in parts])
+    steps = np.concatenate([pad_steps(p["steps"], t_max, -1) for p in parts])
     data = {"terrain": np.concatenate([p["terrain"] for p in parts]).astype(np.float32),
             "apex": np.concatenate([p["apex"] for p in parts]).astype(np.float32),
             "s0": np.concatenate([p["s0"] for p in parts]).astype(np.int64),
             "steps": steps.astype(np.int64)}
     if all("viable" in p for p in parts):  # packed bits over the bins, per step
-        data["viable"] = np.concatenate([np.pad(p["viable"], ((0, 0), (0, t_max - p["viable"].shape[1]), (0, 0)))
-                                         for p in parts])
+        data["viable"] = np.concatenate([pad_steps(p["viable"], t_max) for p in parts])
     subcells = {int(p["subcells"]) if "subcells" in p else 1 for p in parts}
     if len(subcells) != 1:
         raise ValueError(f"dataset in {folder} mixes shards with different bins per cell: {sorted(subcells)}")

@@ -1056,13 +1056,18 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
     record["seed_time_s"] = sum(r.get("seed_time_s", 0.0) for r in starts)
     solved = [r for r in starts if r.get("solve_time_s") is not None]
     if solved:
-        record["solve_time_s"] = sum(r["solve_time_s"] for r in solved)
-        record["iterations"] = (None if any(r["iterations"] is None for r in solved)
-                                else sum(r["iterations"] for r in solved))
+        record.update(_total_cost(solved))
     record["starts"] = [{"sample": k, "error": r["error"], "converged": r["converged"], "verified": r["verified"],
                          "status": r.get("status"), "solve_time_s": r.get("solve_time_s"),
                          "iterations": r.get("iterations")} for k, r in enumerate(starts)]
     return record
+
+
+def _total_cost(solves: list) -> dict:
+    """Solver time and iterations added up over several solves (iterations None if any solve lacks them)."""
+    iterations = [r["iterations"] for r in solves]
+    return {"solve_time_s": sum(r["solve_time_s"] for r in solves),
+            "iterations": None if None in iterations else sum(iterations)}
 
 
 def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, true_terrain, verify_on_drake):
@@ -1108,10 +1113,7 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
         attempts.append({"guess": "polish", "converged": result.converged, "status": result.status,
                          "iterations": result.iterations, "solve_time_s": result.solve_time_s})
     record.update(result.summary())
-    # what the query cost: every attempt's solver time and iterations
-    record["solve_time_s"] = sum(a["solve_time_s"] for a in attempts)
-    record["iterations"] = (None if any(a["iterations"] is None for a in attempts)
-                            else sum(a["iterations"] for a in attempts))
+    record.update(_total_cost(attempts))  # what the query cost: every attempt's solver time and iterations
     record["attempts"] = attempts
     if verify_on_drake:
         check = verify(problem.apex, result.leg_angles, true_terrain or problem.terrain, problem.params,

@@ -101,7 +101,7 @@ def test_window_encoding_puts_the_body_in_cell_30():
     for x in np.linspace(0.0, 9.0, 37):
         enc = encode_window(terrain, ds.ApexState(x, terrain.height_at(x) + 0.7, 1.2))
         assert enc.s0 == 30 and enc.terrain.shape == (110,)
-        assert enc.cell_of(x) == 30
+        assert enc.bin_of(x) == 30
         assert enc.apex[0] == pytest.approx(0.7, abs=1e-6)
 
 
