@@ -9,6 +9,13 @@ as NAME@VARIANT, with their options keyed by that label:
 
     python examples/evaluate.py --suite suites/ditch.json --planners step,lstm-guided,lstm-guided@lazy \
         --options '{"lstm-guided@lazy": {"lazy": true}}' --backend fast --jobs 2 --out out/lazy.json
+
+Planning on the Drake model itself (each candidate hop simulated on Drake, 0.1-0.2 s a hop) is slow, so take
+a spread-out sample of the cases:
+
+    python examples/evaluate.py --suite suites/ditch.json --every 13 --cases 10 --planners step,lstm-guided \
+        --options '{"step": {"step_map": "drake", "max_time_s": 600},
+                    "lstm-guided": {"step_map": "drake", "max_time_s": 600}}' --baseline step --out out/drake.json
 """
 from __future__ import annotations
 
@@ -19,7 +26,7 @@ import sys
 from pathlib import Path
 
 from planners import available
-from planners.evaluation import EvalConfig, evaluate, planner_name, table, write_json
+from planners.evaluation import EvalConfig, evaluate, planner_name, ratios, table, write_json
 from planners.suite import load_suite
 
 
@@ -28,7 +35,10 @@ def main(argv=None):
     ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
     ap.add_argument("--planners", default="heuristic,angle,step",
                     help=f"comma-separated, of {available()}, each optionally NAME@VARIANT")
-    ap.add_argument("--cases", type=int, default=None, help="only the first N cases")
+    ap.add_argument("--cases", type=int, default=None, help="only the first N cases (after --every)")
+    ap.add_argument("--every", type=int, default=1,
+                    help="take every K-th case (suites list 10 starts per terrain: K = 7 or 13 spreads a few "
+                         "cases over the terrains and starts)")
     ap.add_argument("--out", required=True, help="results JSON (written atomically)")
     ap.add_argument("--jobs", type=int, default=1, help="worker processes")
     ap.add_argument("--options", default="{}",
@@ -40,14 +50,20 @@ def main(argv=None):
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
+    ap.add_argument("--baseline", default=None,
+                    help="also print this planner's ODE calls and planning time over each other planner's")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
     print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
+    if args.every < 1 or (args.cases is not None and args.cases < 1):
+        ap.error(f"--every and --cases must be positive, got --every {args.every} --cases {args.cases}")
     names = [n for n in args.planners.split(",") if n]
     unknown = [n for n in names if planner_name(n) not in available()]
     if unknown:
         ap.error(f"unknown planner(s) {unknown}; known planners: {', '.join(available())}")
+    if args.baseline is not None and args.baseline not in names:
+        ap.error(f"--baseline {args.baseline!r} is not among --planners {names}")
     options = json.loads(args.options)
     if not isinstance(options, dict) or any(k not in names for k in options):
         ap.error(f"--options must map planner labels among {names} to option objects")
@@ -55,12 +71,14 @@ def main(argv=None):
     cache = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache.exists():
         cache.unlink()
-    results = evaluate(suite, {n: options.get(n, {}) for n in names}, n_cases=args.cases, jobs=args.jobs,
-                       cache_path=cache, controller_path=args.controller,
+    results = evaluate(suite, {n: options.get(n, {}) for n in names}, n_cases=args.cases, every=args.every,
+                       jobs=args.jobs, cache_path=cache, controller_path=args.controller,
                        config=EvalConfig(executed_per_plan=args.executed, backend=args.backend,
                                          refine=not args.mlp_only), progress=not args.quiet)
     write_json(results, args.out)
     print(table(results))
+    if args.baseline:
+        print(ratios(results, args.baseline))
     print(f"wrote {args.out}")
 
 

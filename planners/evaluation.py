@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import statistics
 from concurrent.futures import ProcessPoolExecutor, as_completed
@@ -137,6 +138,30 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
+def ratios(results: dict, baseline: str) -> str:
+    """The baseline planner's ODE calls and planning time per planning call over each other planner's, from one
+    run: means, medians, and the mean time over calls that found a plan (a search that finds none runs to its
+    budget, which is the same for every planner and can dominate a mean over few cases)."""
+    if baseline not in results["planners"]:
+        raise ValueError(f"baseline {baseline!r} is not among the results' planners {list(results['planners'])}")
+
+    def stats(r):
+        calls = [p for c in r["cases"] for p in c["plans"]]
+        found = [p["t_plan_s"] for p in calls if p["success"]]
+        return (r["ode_calls_mean"], r["ode_calls_median"], r["t_plan_mean_s"],
+                statistics.fmean(found) if found else math.nan, r["t_plan_median_s"])
+
+    base = stats(results["planners"][baseline])
+    w = max([12] + [len(name) for name in results["planners"]])
+    heads = ("ODE mean", "ODE median", "t_plan mean", "t mean, found", "t_plan median")
+    rows = [f"{baseline} / planner, per planning call", f"{'Planner':<{w}} " + " ".join(f"{h:>13}" for h in heads)]
+    for name, r in results["planners"].items():
+        if name != baseline:
+            cells = (b / x if x != 0 else math.inf for b, x in zip(base, stats(r)))
+            rows.append(f"{name:<{w}} " + " ".join(f"{c:>12.2f}x" for c in cells))
+    return "\n".join(rows)
+
+
 # ---- parallel driver with a resumable per-case cache ---------------------------------------------------
 
 _WORKER: dict = {}
@@ -189,12 +214,16 @@ def load_cache(path: Path) -> dict:
 
 
 def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs: int = 1,
-             cache_path=None, controller_path=None, config: EvalConfig = EvalConfig(), progress: bool = True) -> dict:
-    """Run every planner on the first ``n_cases`` cases (all if None), ``jobs`` processes. Finished cases are
-    appended to ``cache_path`` (JSON lines) as they complete and skipped when the run is started again."""
+             cache_path=None, controller_path=None, config: EvalConfig = EvalConfig(), progress: bool = True,
+             every: int = 1) -> dict:
+    """Run every planner on every ``every``-th case, the first ``n_cases`` of those (all if None), ``jobs``
+    processes. Finished cases are appended to ``cache_path`` (JSON lines) as they complete and skipped when
+    the run is started again."""
     from tqdm import tqdm
 
-    cases = list(suite.cases[:n_cases] if n_cases else suite.cases)
+    if not (isinstance(every, int) and every >= 1):
+        raise ValueError(f"every must be a positive integer, got {every!r}")
+    cases = list(suite.cases[::every])[:n_cases]
     keys = {name: fingerprint(suite, name, opts, config, controller_path) for name, opts in planner_specs.items()}
     cache_path = Path(cache_path) if cache_path else None
     cache = load_cache(cache_path) if cache_path else {}

@@ -7,7 +7,8 @@ import time
 
 import numpy as np
 
-from drakeslip import step_batch
+from drakeslip import step, step_batch
+from drakeslip.stepmap import BACKENDS
 from drakeslip.controller import StepLengthController
 
 from .angle_space import EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, run_attempts
@@ -27,13 +28,20 @@ class StepSpacePlanner(Planner):
     step-map call, and a child is kept when the hop succeeds, lands within ``tolerance`` of x_L and keeps
     ``min_speed``. The plan's footholds are the x_L. If a search finds no sequence it is retried on each
     ``fallback_spacing`` grid (like the paper's fallback branching): a fast, high hop keeps its next hop
-    alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds."""
+    alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds.
+
+    ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
+    (about 0.1-0.2 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
+    calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
 
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
                  tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
                  weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
-                 edge_margin: float = EDGE_MARGIN, **budget):
+                 edge_margin: float = EDGE_MARGIN, step_map: str = "fast", **budget):
         super().__init__(**budget)
+        if step_map not in BACKENDS:
+            raise ValueError(f"unknown step_map {step_map!r}; choose one of {BACKENDS}")
+        self.step_map = step_map
         self.controller = controller or StepLengthController.load_default()
         self.spacings = (spacing, *fallback_spacing)
         for s in self.spacings:
@@ -96,16 +104,24 @@ class StepSpacePlanner(Planner):
         return best_first(problem, expand, self.weights, self.n_sequences, self.budget.max_nodes)
 
     def simulate(self, problem: Problem, apex, x_l: np.ndarray, theta: np.ndarray):
-        """One batched fast step-map call for the admissible (finite ``theta``) desired footholds; returns
-        ``ok`` (the hop succeeds, lands within ``tolerance`` of x_L and keeps ``min_speed``) and the next apexes."""
+        """One batched fast step-map call (or one Drake simulation each) for the admissible (finite ``theta``)
+        desired footholds; returns ``ok`` (the hop succeeds, lands within ``tolerance`` of x_L and keeps
+        ``min_speed``) and the next apexes."""
         keep = ~np.isnan(theta)
         ok = np.zeros(x_l.size, dtype=bool)
         apexes = np.zeros((x_l.size, 3))
-        if keep.any():
+        if not keep.any():
+            return ok, apexes
+        if self.step_map == "fast":
             res = step_batch(apex, theta[keep], problem.terrain, problem.params)
-            ok[keep] = (res.ok & (np.abs(res.touchdown_x - x_l[keep]) < self.tolerance)
-                        & (res.next_xdot >= self.min_speed))
+            landed, touchdown_x = res.ok, res.touchdown_x
             apexes[keep] = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)
+        else:
+            hops = [step(apex, a, problem.terrain, problem.params, backend="drake") for a in theta[keep]]
+            landed = np.array([h.ok for h in hops])
+            touchdown_x = np.array([h.touchdown_x for h in hops])
+            apexes[keep] = [h.next_apex if h.ok else h.end_state[:3] for h in hops]
+        ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < self.tolerance) & (apexes[keep, 2] >= self.min_speed)
         return ok, apexes
 
     @staticmethod

@@ -83,11 +83,38 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert again == results
 
 
+def test_every_kth_case_is_evaluated(tmp_path):
+    suite = make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.8, 0.9))
+    results = evaluation.evaluate(suite, {"heuristic": {}}, n_cases=2, every=3, progress=False,
+                                  config=evaluation.EvalConfig(backend="fast"))
+    assert [c["id"] for c in results["planners"]["heuristic"]["cases"]] == [suite.cases[0].id, suite.cases[3].id]
+    with pytest.raises(ValueError, match="every must be a positive integer, got 0"):
+        evaluation.evaluate(suite, {"heuristic": {}}, every=0, progress=False)
+
+
+def test_ratios_to_a_baseline_per_planning_call():
+    def case(ode, t, found):
+        return {"id": "c", "success": all(found), "failure": None, "final_x": 0.0,
+                "plans": [{"ode_calls": o, "t_plan_s": s, "success": f} for o, s, f in zip(ode, t, found)]}
+    results = {"suite": "s", "planners": {
+        "step": evaluation.summarize([case([100, 300], [1.0, 9.0], [True, False])]),
+        "guided": evaluation.summarize([case([50, 50], [0.5, 3.0], [True, False])])}}
+    row = evaluation.ratios(results, "step").splitlines()[-1].split()
+    # ODE mean and median 200/50; time mean 5/1.75; over the calls that found a plan 1/0.5; median 5/1.75
+    assert row == ["guided", "4.00x", "4.00x", "2.86x", "2.00x", "2.86x"]
+    with pytest.raises(ValueError, match="baseline 'angle' is not among"):
+        evaluation.ratios(results, "angle")
+
+
 def test_unknown_planner_on_the_cli(tmp_path):
     run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "x.json",
                           "--planners", "warp", "--out", str(tmp_path / "o.json")],
                          capture_output=True, text=True, cwd=ROOT, timeout=120)
     assert run.returncode != 0 and "unknown planner" in run.stderr
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "x.json",
+                          "--planners", "step", "--baseline", "angle", "--out", str(tmp_path / "o.json")],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode != 0 and "--baseline 'angle' is not among --planners ['step']" in run.stderr
 
 
 def test_two_settings_of_one_planner_run_side_by_side(tmp_path):

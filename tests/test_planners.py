@@ -136,3 +136,21 @@ def test_heuristic_moves_steps_off_ditches(made):
     plan = made["heuristic"].plan((0.0, 1.0, 2.0), Terrain(heights), 10.0, PARAMS)
     assert plan.success
     assert not np.any((plan.footholds >= 0.5 - 0.03) & (plan.footholds < 1.5 + 0.03))  # clear of it and its edges
+
+
+def test_step_space_on_the_drake_step_map_agrees_with_the_fast_one(controller):
+    """step_map="drake" simulates each candidate on the Drake hybrid simulator: the same verdicts and (to the
+    backends' agreement) the same next apexes as the fast step map, for a foothold that keeps the hopper going
+    and two either side of the band that does."""
+    terrain, apex = Terrain.flat(), (0.0, 1.0, 1.5)
+    fast, drake = (planners.make("step", controller=controller, step_map=m) for m in ("fast", "drake"))
+    problem = fast.problem(apex, terrain, 10.0, PARAMS, 0.0)
+    x_l = np.array([0.4125, 0.5625, 0.7125])
+    theta = fast.aim(apex, x_l, terrain, PARAMS)
+    ok_fast, apex_fast = fast.simulate(problem, apex, x_l, theta)
+    ok_drake, apex_drake = drake.simulate(problem, apex, x_l, theta)
+    np.testing.assert_array_equal(ok_fast, [False, True, False])
+    np.testing.assert_array_equal(ok_drake, ok_fast)
+    np.testing.assert_allclose(apex_drake[1], apex_fast[1], atol=2e-3)
+    with pytest.raises(ValueError, match="unknown step_map 'mujoco'"):
+        planners.make("step", controller=controller, step_map="mujoco")
