@@ -5,6 +5,7 @@ import pytest
 import planners
 from drakeslip import ApexState, SlipParams, ditch_world
 from planners.evaluation import perceived
+from planners.lstm_planner import SUBCELL_WEIGHTS
 
 TERRAIN = perceived(ditch_world(1003), 0.0)
 APEX = (0.0, 0.9, 2.0)
@@ -83,3 +84,20 @@ def test_bench_lstm_step(benchmark):
     state = net.model.initial_state(apex)
     logits, _ = benchmark(net.model.step, terrain, s0, state)
     assert logits.shape == (1, 110) and np.all(np.isfinite(logits))
+
+
+DRAKE_PLANNING = {"step": {}, "lstm-guided": {},
+                  "lstm-guided@subcell-lazy-apex": {"weights": SUBCELL_WEIGHTS, "lazy": True, "conditioning": "apex"}}
+
+
+@pytest.mark.parametrize("name", list(DRAKE_PLANNING))
+def test_bench_one_plan_on_the_drake_step_map(benchmark, controller, name):
+    """The same plan with every candidate hop simulated on Drake (``step_map="drake"``), where a plan's time is
+    its ODE calls as for the paper's planners (docs/results.md, "Planning on the Drake model"). One round each:
+    a Step-space plan takes tens of seconds."""
+    planner = planners.make(name.split("@")[0], controller=controller, step_map="drake", max_time_s=300,
+                            **DRAKE_PLANNING[name])
+    plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=1, iterations=1)
+    assert plan.success, plan.message
+    benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
+                                seconds_per_ode_call=benchmark.stats.stats.mean / plan.ode_calls)
