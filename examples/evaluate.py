@@ -10,7 +10,7 @@ as NAME@VARIANT, with their options keyed by that label:
     python examples/evaluate.py --suite suites/ditch.json --planners step,lstm-guided,lstm-guided@lazy \
         --options '{"lstm-guided@lazy": {"lazy": true}}' --backend fast --jobs 2 --out out/lazy.json
 
-Planning on the Drake model itself (each candidate hop simulated on Drake, 0.1-0.2 s a hop) is slow, so take
+Planning on the Drake model itself (each candidate hop simulated on Drake, about 0.1 s a hop) is slow, so take
 a spread-out sample of the cases:
 
     python examples/evaluate.py --suite suites/ditch.json --every 13 --cases 10 --planners step,lstm-guided \

@@ -31,7 +31,7 @@ class StepSpacePlanner(Planner):
     alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
-    (about 0.1-0.2 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
+    (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
     calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
 
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
