@@ -4,10 +4,13 @@ The planner sees the perception window around the start apex, as in the receding
 planning call; the file holds the whole terrain, so examples/verify_plan.py checks the plan on the real ground.
 
     python3 examples/make_plan.py --suite suites/step.json --case 7 --planner step --out out/plan.json
+    python3 examples/make_plan.py --suite suites/step.json --case 7 --planner trajopt \
+        --options '{"seed": "lstm-guided"}' --out out/trajopt-plan.json
 """
 from __future__ import annotations
 
 import argparse
+import json
 from pathlib import Path
 
 import drakeslip as ds
@@ -22,12 +25,20 @@ def main(argv=None):
     parser.add_argument("--suite", type=Path, required=True, help="suite file (drakeslip-suite/1 JSON)")
     parser.add_argument("--case", required=True, help="case index (0-based) or case id")
     parser.add_argument("--planner", required=True, help=f"one of {', '.join(planners.available())}")
+    parser.add_argument("--options", default="{}",
+                        help='the planner\'s options as a JSON object, e.g. \'{"seed": "lstm-guided"}\' for trajopt')
     parser.add_argument("--out", type=Path, required=True, help="plan file to write (JSON)")
     args = parser.parse_args(argv)
     try:
+        options = json.loads(args.options)
+    except json.JSONDecodeError as error:
+        parser.error(f"--options is not valid JSON ({error}): {args.options!r}")
+    if not isinstance(options, dict):
+        parser.error(f"--options must be a JSON object of planner options, got {args.options!r}")
+    try:
         suite = load_suite(args.suite)
-        planner = planners.make(args.planner)
-    except (OSError, ValueError) as error:
+        planner = planners.make(args.planner, **options)
+    except (OSError, ValueError, TypeError) as error:  # TypeError: an option the planner does not take
         parser.error(str(error))
     ids = [c.id for c in suite.cases]
     if args.case in ids:

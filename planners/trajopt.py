@@ -456,15 +456,17 @@ def _controller():
 
 
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
-                   lstm_weights: str | None = None, sample: int = 0) -> np.ndarray:
+                   lstm_weights: str | None = None, sample: int = 0) -> tuple[np.ndarray, int]:
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
-    past the target. ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model).
+    past the target, and the step-map calls the seed's planner made (0 for ``cold``).
+    ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model).
     ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops, the
     LSTM-guided search with sampling seed ``sample``)."""
     if name not in SEEDS:
         raise ValueError(f"unknown seed {name!r}; known seeds: {', '.join(SEEDS)}")
     if sample and name not in MULTI_START:
         raise ValueError(f"the {name} seed has one start; sample {sample!r} asked for another")
+    ode_calls = 0
     if name == "cold":
         footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
@@ -473,9 +475,9 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")
-        footholds = np.asarray(plan.footholds, dtype=np.float64)
+        footholds, ode_calls = np.asarray(plan.footholds, dtype=np.float64), plan.ode_calls
     passed = np.flatnonzero(footholds >= problem.target_x)
-    return footholds[:passed[0] + 1] if passed.size else footholds
+    return (footholds[:passed[0] + 1] if passed.size else footholds), ode_calls
 
 
 # ---- initial guess -----------------------------------------------------------------------------------------
@@ -1054,6 +1056,7 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
         return record
     record = dict(record)
     record["seed_time_s"] = sum(r.get("seed_time_s", 0.0) for r in starts)
+    record["ode_calls"] = sum(r.get("ode_calls", 0) for r in starts)
     solved = [r for r in starts if r.get("solve_time_s") is not None]
     if solved:
         record.update(_total_cost(solved))
@@ -1080,12 +1083,13 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
               "converged": False, "verified": False, "error": None}
     t0 = time.perf_counter()
     try:
-        footholds = (seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample)
-                     if isinstance(seed, str) else np.asarray(seed, dtype=np.float64).reshape(-1))
+        footholds, seed_calls = (seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample)
+                                 if isinstance(seed, str) else (np.asarray(seed, dtype=np.float64).reshape(-1), 0))
     except TrajoptError as exc:
         record.update(error=str(exc), seed_time_s=time.perf_counter() - t0)
         return record
     record["seed_time_s"] = time.perf_counter() - t0
+    record["ode_calls"] = seed_calls
     footholds = footholds[:config.max_hops]
     record["seed_footholds"] = footholds.tolist()
     record["hops"] = int(footholds.size)
@@ -1099,6 +1103,7 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
     for reanchor in (True, False):
         guess = build_guess(problem.apex, footholds, segs, problem.terrain, problem.params, config.node_times(),
                             reanchor=reanchor)
+        record["ode_calls"] += footholds.size  # the guess executes each foothold once on the fast step map
         if reanchor:
             record["seed_fast_ok"] = guess.fast_ok
             record["seed_fast_failure"] = guess.fast_failure
@@ -1127,7 +1132,11 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
 @register("trajopt")
 class TrajoptPlanner(Planner):
     """The trajectory optimization as a planner: footholds from ``seed``, optimized; the plan carries the
-    optimized leg angles and apexes (``plan.success`` means the solver converged, not that Drake verified)."""
+    optimized leg angles and apexes (``plan.success`` means the solver converged, not that Drake verified).
+    Its ``ode_calls`` are the seed planner's step-map calls and the initial guess's (one per hop; none are
+    counted when the seed finds no plan); the collocation's own evaluations of the SLIP equations are not
+    step-map calls. It does not stop at ``max_time_s``: the seed planner has its own default budget and the
+    solve runs to ``config.major_iterations`` (SNOPT's "Time limit" option had no effect when tried)."""
 
     def __init__(self, seed: str = "step", config: TrajoptConfig | None = None, **budget):
         super().__init__(**budget)
@@ -1139,8 +1148,9 @@ class TrajoptPlanner(Planner):
     def _plan(self, problem: Problem) -> Plan:
         record = optimize(problem, self.seed, self.config, verify_on_drake=False)
         if record["error"] or not record["converged"]:
-            return Plan(self.name, False, problem.target_x,
+            return Plan(self.name, False, problem.target_x, ode_calls=record.get("ode_calls", 0),
                         message=f"no plan found: {record['error'] or record.get('status')}")
         seq = FootstepSequence(np.array(record["footholds"]), np.array(record["leg_angles"]),
                                np.array(record["apexes"][1:]))
-        return Plan(self.name, True, problem.target_x, message=record.get("status", ""), sequences=[seq])
+        return Plan(self.name, True, problem.target_x, ode_calls=record["ode_calls"],
+                    message=record.get("status", ""), sequences=[seq])

@@ -166,3 +166,31 @@ def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, capsys):
     (tmp_path / "broken.json").write_text("{")
     assert verify(["--plan", str(tmp_path / "broken.json")]) == 2
     assert "broken.json is not valid JSON" in capsys.readouterr().err
+
+
+def test_every_registered_planner_is_known_after_import_planners():
+    # a fresh interpreter: trajopt must be registered by `import planners` alone, not by an earlier test's import
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", "import planners; print(','.join(planners.available()))"],
+                         capture_output=True, text=True, check=True, cwd=ROOT).stdout.strip()
+    assert out.split(",") == ["angle", "heuristic", "lstm", "lstm-guided", "step", "trajopt"]
+
+
+def test_cli_make_plan_with_trajopt_options_is_certified(tmp_path, capsys):
+    suite = tmp_path / "suite.json"
+    save_suite(make_suite("step", seed=2000, n_terrains=1), suite)
+    make = example("make_plan").main
+    base = ["--suite", str(suite), "--case", "step-2000-v2.5-z1", "--planner", "trajopt"]
+    for bad, message in (('{"bogus": 1}', "unexpected keyword argument 'bogus'"), ("[1]", "must be a JSON object"),
+                         ("{seed", "not valid JSON"), ('{"seed": "mode"}', "unknown seed 'mode'")):
+        with pytest.raises(SystemExit):
+            make(base + ["--options", bad, "--out", str(tmp_path / "bad.json")])
+        assert message in capsys.readouterr().err
+    plan = tmp_path / "trajopt.json"
+    assert make(base + ["--options", '{"seed": "lstm-guided"}', "--out", str(plan)]) == 0
+    record = load_plan(plan)
+    assert record.planner == "trajopt" and np.all(np.isfinite(record.leg_angles))
+    assert example("verify_plan").main(["--plan", str(plan)]) == 0
+    assert "CERTIFIED" in capsys.readouterr().out

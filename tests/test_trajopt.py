@@ -107,6 +107,8 @@ def test_flat_ground_cold_start_converges_and_verifies_on_drake(flat_problem):
     assert record["verified"], record["verification"]
     assert record["iterations"] is not None and record["iterations"] > 0
     assert record["solve_time_s"] > 0
+    # no seed planner; each guess built executes every foothold once on the fast step map
+    assert record["ode_calls"] == record["hops"] * sum(a["guess"] != "polish" for a in record["attempts"]) > 0
     # Drake lands where the optimizer planned (open loop, 3 hops: the transcription is accurate)
     assert np.array(record["verification"]["footholds"]) == pytest.approx(record["footholds"], abs=1e-5)
     assert record["apexes"][-1][0] >= flat_problem.target_x
@@ -154,7 +156,8 @@ def test_segments_and_cold_seed_cover_the_problem(flat_problem):
     assert cold[-1] >= flat_problem.target_x
     # the cold seed's other starts: the same span in more or fewer equal steps
     for sample, extra in enumerate(T.COLD_STRIDES):
-        other = T.seed_footholds("cold", flat_problem, sample=sample)
+        other, calls = T.seed_footholds("cold", flat_problem, sample=sample)
+        assert calls == 0
         assert other.size == max(cold.size + extra, 2)
         assert (other[0], other[-1]) == pytest.approx((cold[0], cold[-1]))
     with pytest.raises(ValueError, match="the step seed has one start; sample 1"):
@@ -204,7 +207,8 @@ def test_learned_seeds_give_increasing_footholds_to_the_target(seed):
     from drakeslip import ditch_world
 
     problem = T.make_problem(APEX, ditch_world(1003), 4.0, PARAMS)
-    footholds = T.seed_footholds(seed, problem)
+    footholds, calls = T.seed_footholds(seed, problem)
+    assert calls > 0 if seed == "lstm-guided" else calls == 0   # the mode planner simulates nothing
     assert footholds.size >= 2 and np.all(np.diff(footholds) > 0)
     assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
 
@@ -227,6 +231,10 @@ def test_as_a_planner_it_returns_the_optimized_plan():
     assert plan.success, plan.message
     assert len(plan.footholds) == len(plan.leg_angles) == len(plan.apexes) >= 2
     assert np.all(np.isfinite(plan.leg_angles)) and plan.apexes[-1][0] >= plan.target_x
+    assert plan.ode_calls in (len(plan.footholds), 2 * len(plan.footholds))   # one or two guesses, no seed search
+    step_seeded = planners.make("trajopt", seed="step").plan(APEX, Terrain.flat(), 3.0, PARAMS)
+    seed_calls = planners.make("step").plan(APEX, Terrain.flat(), 3.0, PARAMS).ode_calls
+    assert step_seeded.success and step_seeded.ode_calls >= seed_calls + len(step_seeded.footholds)
 
 
 def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
