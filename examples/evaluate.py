@@ -25,7 +25,7 @@ import shlex
 import sys
 from pathlib import Path
 
-from planners import available
+from planners import available, make
 from planners.evaluation import EvalConfig, evaluate, planner_name, ratios, table, write_json
 from planners.suite import load_suite
 
@@ -64,9 +64,17 @@ def main(argv=None):
         ap.error(f"unknown planner(s) {unknown}; known planners: {', '.join(available())}")
     if args.baseline is not None and args.baseline not in names:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {names}")
-    options = json.loads(args.options)
-    if not isinstance(options, dict) or any(k not in names for k in options):
-        ap.error(f"--options must map planner labels among {names} to option objects")
+    try:
+        options = json.loads(args.options)
+    except json.JSONDecodeError as error:
+        ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
+    if not isinstance(options, dict) or any(k not in names or not isinstance(v, dict) for k, v in options.items()):
+        ap.error(f"--options must map planner labels among {names} to option objects, got {args.options!r}")
+    for label, opts in options.items():  # a bad option is refused here, by name, not in a worker's traceback
+        try:
+            make(planner_name(label), **opts)
+        except (TypeError, ValueError) as error:
+            ap.error(f"--options for {label}: {error}")
     suite = load_suite(args.suite)
     cache = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache.exists():

@@ -34,6 +34,8 @@ def main(argv=None):
     ap.add_argument("--friction", type=float, default=0.8)
     ap.add_argument("--out", default="out/plan_and_hop.png", help="figure to write")
     args = ap.parse_args(argv)
+    if args.planner not in available():
+        ap.error(f"unknown planner {args.planner!r}; known planners: {', '.join(available())}")
     print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
     terrain = TERRAIN_FAMILIES[args.terrain](args.seed)

@@ -117,6 +117,20 @@ def test_unknown_planner_on_the_cli(tmp_path):
     assert run.returncode != 0 and "--baseline 'angle' is not among --planners ['step']" in run.stderr
 
 
+@pytest.mark.parametrize("options, message", [
+    ('{"step": {"bogus": 1}}', "--options for step: Planner.__init__() got an unexpected keyword argument 'bogus'"),
+    ('{"step": {"spacing": -1}}', "--options for step: spacing must be a positive distance, got -1"),
+    ("{step", "--options is not valid JSON"),
+    ('{"step": 3}', "--options must map planner labels among ['step'] to option objects"),
+])
+def test_bad_planner_options_on_the_cli_are_named_before_any_case_runs(tmp_path, options, message):
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "suites/step.json",
+                          "--planners", "step", "--options", options, "--out", str(tmp_path / "o.json")],
+                         capture_output=True, text=True, cwd=ROOT, timeout=120)
+    assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
+    assert not (tmp_path / "o.json").exists()
+
+
 def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     """NAME@VARIANT labels: the same planner with other options, each with its own results and cache key."""
     suite_path = tmp_path / "suite.json"
