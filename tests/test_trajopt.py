@@ -8,6 +8,7 @@ import pytest
 from drakeslip import SlipParams, Terrain, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.terrain import DITCH_HEIGHT
+from planners import generic_slip as G
 from planners import trajopt as T
 
 PARAMS = SlipParams()
@@ -35,10 +36,10 @@ def test_generic_equations_are_the_compiled_ones():
     """The optimizer evaluates the very source numba compiled: same numbers, on floats and on Duals."""
     p = PARAMS.as_array()
     state = (0.12, 0.43, 1.7, -0.9, 0.02, 0.0)
-    assert T.generic(dyn.stance_derivatives)(*state, p) == pytest.approx(dyn.stance_derivatives(*state, p), rel=1e-15)
-    assert T.generic(dyn.foot_position)(0.3, 1.0, 0.25, p) == pytest.approx(dyn.foot_position(0.3, 1.0, 0.25, p))
-    v = T.Dual.variables(np.array(state))
-    out = T.generic(dyn.stance_derivatives)(*v, p)
+    assert G.generic(dyn.stance_derivatives)(*state, p) == pytest.approx(dyn.stance_derivatives(*state, p), rel=1e-15)
+    assert G.generic(dyn.foot_position)(0.3, 1.0, 0.25, p) == pytest.approx(dyn.foot_position(0.3, 1.0, 0.25, p))
+    v = G.Dual.variables(np.array(state))
+    out = G.generic(dyn.stance_derivatives)(*v, p)
     assert [float(o.val) for o in out] == pytest.approx(list(dyn.stance_derivatives(*state, p)), rel=1e-15)
     # forward-mode derivatives against central differences
     h = 1e-6
