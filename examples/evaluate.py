@@ -25,8 +25,9 @@ import shlex
 import sys
 from pathlib import Path
 
-from planners import available, make
-from planners.evaluation import EvalConfig, evaluate, planner_name, ratios, table, write_json
+from planners import available
+from planners.evaluation import (EvalConfig, evaluate, make_planners, planner_name, ratios, table,
+                                 write_json)
 from planners.suite import load_suite
 
 
@@ -70,11 +71,10 @@ def main(argv=None):
         ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
     if not isinstance(options, dict) or any(k not in names or not isinstance(v, dict) for k, v in options.items()):
         ap.error(f"--options must map planner labels among {names} to option objects, got {args.options!r}")
-    for label, opts in options.items():  # a bad option is refused here, by name, not in a worker's traceback
-        try:
-            make(planner_name(label), **opts)
-        except (TypeError, ValueError) as error:
-            ap.error(f"--options for {label}: {error}")
+    try:  # a bad option is refused here, by label, not in a worker's traceback
+        make_planners(options)
+    except ValueError as error:
+        ap.error(f"--{error}")  # "--options for LABEL: ..."
     suite = load_suite(args.suite)
     cache = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache.exists():

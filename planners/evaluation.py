@@ -173,12 +173,24 @@ def planner_name(label: str) -> str:
     return label.split("@", 1)[0]
 
 
+def make_planners(planner_specs: dict, controller: StepLengthController | None = None) -> dict:
+    """The planners of a run by label, sharing ``controller`` with those that take one; an option a planner
+    does not take, or a bad value, is a ValueError naming the label."""
+    planners = {}
+    for label, opts in planner_specs.items():
+        name = planner_name(label)
+        shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
+        try:
+            planners[label] = make(name, **shared, **opts)
+        except (TypeError, ValueError) as error:  # TypeError: an unknown keyword
+            raise ValueError(f"options for {label}: {error}") from error
+    return planners
+
+
 def _init_worker(planner_specs: dict, controller_path, refine: bool):
     controller = StepLengthController.load(controller_path or DEFAULT_WEIGHTS, refine=refine)
     _WORKER["controller"] = controller
-    _WORKER["planners"] = {
-        label: make(planner_name(label), **({"controller": controller} if takes(planner_name(label), "controller")
-                                            else {}), **opts) for label, opts in planner_specs.items()}
+    _WORKER["planners"] = make_planners(planner_specs, controller)
 
 
 def _run_task(label: str, case_dict: dict, goal_x: float, friction: float, config: EvalConfig):
@@ -224,6 +236,7 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
     if not (isinstance(every, int) and every >= 1):
         raise ValueError(f"every must be a positive integer, got {every!r}")
     cases = list(suite.cases[::every])[:n_cases]
+    _init_worker(planner_specs, controller_path, config.refine)  # in this process: bad options fail before any case
     keys = {name: fingerprint(suite, name, opts, config, controller_path) for name, opts in planner_specs.items()}
     cache_path = Path(cache_path) if cache_path else None
     cache = load_cache(cache_path) if cache_path else {}
@@ -248,7 +261,6 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
 
         payload = lambda c: {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}
         if jobs <= 1:
-            _init_worker(planner_specs, controller_path, config.refine)
             for name, c in todo:
                 finish(*_run_task(name, payload(c), suite.goal_x, suite.friction, config))
         else:

@@ -131,6 +131,16 @@ def test_bad_planner_options_on_the_cli_are_named_before_any_case_runs(tmp_path,
     assert not (tmp_path / "o.json").exists()
 
 
+def test_evaluate_refuses_a_bad_planner_option_by_label_before_any_case(tmp_path):
+    suite = make_suite("ditch", seed=7, n_terrains=1)
+    cache = tmp_path / "cache.jsonl"
+    for jobs in (1, 2):
+        with pytest.raises(ValueError, match=r"options for step@fine: .*spacing must be a positive distance"):
+            evaluation.evaluate(suite, {"step": {}, "step@fine": {"spacing": 0.0}}, n_cases=1, jobs=jobs,
+                                cache_path=cache, progress=False)
+        assert not cache.exists()
+
+
 def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     """NAME@VARIANT labels: the same planner with other options, each with its own results and cache key."""
     suite_path = tmp_path / "suite.json"
