@@ -48,8 +48,11 @@ def main(argv=None):
     ap.add_argument("--out", default="data/footsteps", help="dataset folder (shards + config.json)")
     ap.add_argument("--terrains", type=int, default=DatasetConfig.n_terrains)
     ap.add_argument("--apexes", type=int, default=DatasetConfig.apexes_per_terrain, help="initial states per terrain")
-    ap.add_argument("--planner", choices=("angle", "step"), default=DatasetConfig.planner,
-                    help="the search whose trees become sequences (angle: the paper's)")
+    ap.add_argument("--planner", choices=("angle", "step", "expert"), default=DatasetConfig.planner,
+                    help="the search whose trees become sequences (angle: the paper's), or the goal-reaching "
+                         "expert whose rollouts do (planners/expert.py)")
+    ap.add_argument("--explore", type=float, default=DatasetConfig.explore,
+                    help="--planner expert: chance a rollout hops to a random goal-reaching foothold")
     ap.add_argument("--subcells", type=int, default=DatasetConfig.subcells,
                     help="output bins per 10 cm cell (1: the paper's); with --planner step, its foothold grid")
     ap.add_argument("--min-steps", type=int, default=DatasetConfig.min_steps, help="shortest sequence kept")
@@ -68,11 +71,14 @@ def main(argv=None):
     args = ap.parse_args(argv)
     pair = lambda text, name: tuple(float(v) for v in text.split(",")) if len(text.split(",")) == 2 else \
         ap.error(f"--{name} must be low,high, got {text!r}")
-    cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
-                        height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
-                        n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
-                        friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size,
-                        subcells=args.subcells)
+    try:
+        cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
+                            height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
+                            n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
+                            friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size,
+                            subcells=args.subcells, explore=args.explore)
+    except ValueError as error:
+        ap.error(str(error))
     write_manifest(cfg, args.out)
     shards = pending_shards(cfg, args.out)
     print(f"{cfg.n_instances} instances in {cfg.n_shards} shards; {cfg.n_shards - len(shards)} already done")

@@ -17,6 +17,7 @@ import time
 import torch
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from planners.lstm_model import ModelConfig  # noqa: E402
 from planners.lstm_train import TrainConfig, train  # noqa: E402
 
 
@@ -37,14 +38,18 @@ def main(argv=None):
     ap.add_argument("--seed", type=int, default=d.seed)
     ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
     ap.add_argument("--threads", type=int, default=0, help="torch CPU threads (0: torch's default)")
+    ap.add_argument("--hidden", type=int, default=ModelConfig.hidden, help="LSTM units per layer (110: the paper)")
+    ap.add_argument("--channels", type=int, default=ModelConfig.channels, help="CNN feature maps")
     args = ap.parse_args(argv)
+    if args.hidden < 1 or args.channels < 1:
+        ap.error(f"--hidden and --channels must be positive, got {args.hidden} and {args.channels}")
     if args.threads:
         torch.set_num_threads(args.threads)
     cfg = TrainConfig(data=args.data, out=args.out, checkpoint=args.checkpoint, epochs=args.epochs,
                       batch_size=args.batch_size, lr=args.lr, own_inputs=args.own_inputs, seed=args.seed,
                       device=args.device, max_sequences=args.max_sequences, viable_weight=args.viable_weight)
     t0 = time.perf_counter()
-    summary = train(cfg)
+    summary = train(cfg, width=(args.hidden, args.channels))
     last = summary["history"][-1] if summary["history"] else {}
     print(json.dumps({"train_seconds": round(time.perf_counter() - t0, 1), "n_train": summary["n_train"],
                       "n_val": summary["n_val"], "best_val_loss": round(summary["best_val_loss"], 4),

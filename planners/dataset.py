@@ -7,7 +7,8 @@ sequence: the encoded perception window at the initial apex and the window cells
 step goes its viable set, the cells of all the footholds the search found viable from the same apex (the step's
 siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight). Instances are grouped
 into shards; each shard is written atomically as one .npz, so an interrupted run resumes by skipping the shards
-already on disk.
+already on disk. With ``planner="expert"`` the sequences come from rollouts of the goal-reaching expert instead
+(``expert_sequences``), whose viable sets are each state's goal-reaching footholds.
 """
 from __future__ import annotations
 
@@ -22,6 +23,7 @@ from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
 from drakeslip.files import atomic_write
 
 from .angle_space import AngleSpacePlanner
+from .expert import GoalReachingExpert
 from .step_space import StepSpacePlanner
 from .lstm_inputs import encode_window, pad_steps
 
@@ -30,7 +32,8 @@ from .lstm_inputs import encode_window, pad_steps
 class DatasetConfig:
     """The paper's Table I by default."""
 
-    planner: str = "angle"              # "angle": the paper's; "step": Step-space trees (see README, LSTM)
+    planner: str = "angle"              # "angle": the paper's; "step": Step-space trees; "expert": rollouts of
+                                        # the goal-reaching expert (planners/expert.py; see README, LSTM)
     n_terrains: int = 360               # half ditch world, half step world
     apexes_per_terrain: int = 8
     min_steps: int = 8
@@ -55,10 +58,13 @@ class DatasetConfig:
     subcells: int = 1
     instances_per_shard: int = 16
     seed: int = 0
+    explore: float = 0.3                # "expert": chance a rollout hops to a random goal-reaching foothold
 
     def __post_init__(self):
-        if self.planner not in ("angle", "step"):
-            raise ValueError(f"DatasetConfig.planner must be 'angle' or 'step', got {self.planner!r}")
+        if self.planner not in ("angle", "step", "expert"):
+            raise ValueError(f"DatasetConfig.planner must be 'angle', 'step' or 'expert', got {self.planner!r}")
+        if not 0.0 <= self.explore <= 1.0:
+            raise ValueError(f"DatasetConfig.explore must be a probability, got {self.explore!r}")
         for name in ("height_range", "speed_range"):
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:
@@ -112,6 +118,8 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
 def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
     """All qualifying sequences of instance i as arrays (terrain, apex, s0, steps), plus search statistics;
     s0 and steps are output bins (cells when cfg.subcells is 1)."""
+    if cfg.planner == "expert":
+        return expert_sequences(cfg, i)
     family, terrain, apex = instance(cfg, i)
     result, horizon = search_tree(cfg, i, apex, terrain)
     enc = encode_window(terrain, apex)
@@ -150,6 +158,44 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
     return {"terrain": np.repeat(enc.terrain[None], n, axis=0), "apex": np.repeat(enc.apex[None], n, axis=0),
             "s0": np.full(n, enc.s0_bin(cfg.subcells), dtype=np.int16), "steps": padded, "viable": sets,
             "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+
+
+def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
+    """Instance i's expert rollout as sequences: one from every state it labelled, following the expert's
+    choices up to the first hop that explored elsewhere (that step's label is the sequence's last). A step's
+    viable set is its state's goal-reaching candidates."""
+    family, terrain, apex = instance(cfg, i)
+    params = SlipParams(friction=cfg.friction)
+    expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells)
+    states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore)
+    states = [s for s in states if s[1].choice >= 0]
+    rows = []
+    for k, (a, _, _) in enumerate(states):
+        enc = encode_window(terrain, a)
+        n_bins = enc.terrain.size * cfg.subcells
+        bins, sets = [], []
+        for _, label, executed in states[k:k + cfg.max_steps]:
+            b = int(enc.bin_of(label.foothold, cfg.subcells))
+            if not 0 <= b < n_bins:
+                break
+            there = enc.bin_of(label.x_l[label.reaching], cfg.subcells)
+            row = np.zeros(n_bins, dtype=bool)
+            row[there[(there >= 0) & (there < n_bins)]] = True
+            bins.append(b)
+            sets.append(row)
+            if executed != label.foothold:
+                break
+        if len(bins) >= cfg.min_steps:
+            rows.append((enc, np.array(bins), np.array(sets)))
+    n, t_max, n_bins = len(rows), max((r[1].size for r in rows), default=0), 110 * cfg.subcells
+    steps = np.full((n, t_max), -1, dtype=np.int16)
+    viable = np.zeros((n, t_max, n_bins), dtype=bool)
+    for j, (_, b, v) in enumerate(rows):
+        steps[j, :b.size], viable[j, :b.size] = b, v
+    return {"terrain": np.array([r[0].terrain for r in rows]).reshape(n, 110),
+            "apex": np.array([r[0].apex for r in rows]).reshape(n, 3),
+            "s0": np.array([r[0].s0_bin(cfg.subcells) for r in rows], dtype=np.int16), "steps": steps,
+            "viable": viable, "family": family, "ode_calls": sum(s[1].ode_calls for s in states), "nodes": len(states)}
 
 
 def shard_path(folder: str, k: int) -> str:

@@ -128,16 +128,18 @@ def evaluate(model: FootstepModel, data: dict, idx: np.ndarray, cfg: TrainConfig
     return {"loss": total / max(count, 1), "top1": top1 / max(count, 1), "within1": near / max(count, 1)}
 
 
-def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print) -> dict:
+def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
+          width: tuple = (ModelConfig.hidden, ModelConfig.channels)) -> dict:
     """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``. The model's bins
-    per cell come from the dataset unless ``model_config`` is given."""
+    per cell come from the dataset and its (LSTM units, CNN channels) from ``width`` unless ``model_config``
+    is given."""
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
     data, subcells = load_dataset(cfg.data, cfg.max_sequences)
     if cfg.viable_weight > 0 and "viable" not in data:
         raise ValueError(f"viable_weight={cfg.viable_weight} needs viable sets, which the shards in {cfg.data} "
                          "predate; regenerate them")
-    model_config = model_config or ModelConfig(subcells=subcells)
+    model_config = model_config or ModelConfig(subcells=subcells, hidden=width[0], channels=width[1])
     n = data["terrain"].shape[0]
     if data["terrain"].shape[1] != model_config.n_cells or subcells != model_config.subcells:
         raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells of {subcells} bins, model expects "

@@ -209,6 +209,14 @@ def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     np.testing.assert_allclose(probs.sum(1), 1.0, rtol=1e-5)
 
 
+def test_training_width_is_configurable(tiny_dataset, tmp_path):
+    """examples/train_lstm.py --hidden/--channels: the checkpoint records the width and loads back."""
+    cfg = TrainConfig(data=tiny_dataset, out=str(tmp_path / "wide.pt"), checkpoint="", epochs=1, batch_size=32)
+    train(cfg, log=lambda *_: None, width=(24, 3))
+    model, _ = load_checkpoint(cfg.out)
+    assert (model.config.hidden, model.config.channels) == (24, 3)
+
+
 def test_learned_planners_with_the_committed_weights():
     """The committed model plans a ditch terrain: LSTM-guided within the controller's reach and with far fewer
     step-map calls than Step-space, deterministically; the LSTM's footholds are usable (ahead of each other,

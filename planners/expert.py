@@ -1,0 +1,107 @@
+"""The goal-reaching expert whose rollouts train the footstep model for the mode planner (beyond the paper).
+
+A search tree's root-to-leaf paths (the paper's data) label each step with one of many footholds that happened
+to work; the mode of a model fit to them lands anywhere in, or between, the bands of working footholds, and
+a hop later the hopper is often in a state with no way on. The expert labels a state with the foothold that
+keeps the most room for error on the way to the goal instead:
+
+- its candidates are a grid of desired footholds (the sub-cell model's bins), aimed by the controller and
+  simulated with Step-space's checks (one batched fast step-map call);
+- a candidate is *goal-reaching* when its hop works and Step-space finds a plan from the apex it reaches to
+  the target (the goal, or the end of what the robot sees);
+- the label is the goal-reaching candidate deepest inside its run of goal-reaching neighbours (ties: the
+  farthest), so a foothold missed by a few centimetres still leaves a way on.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from drakeslip import ApexState, SlipParams, Terrain, step
+from drakeslip.controller import StepLengthController
+
+from .step_space import StepSpacePlanner
+
+
+@dataclass
+class ExpertLabel:
+    """The expert's view of one state: the candidate footholds ``x_l``, which of them are goal-reaching, and
+    the index of its choice (-1 when none is)."""
+
+    x_l: np.ndarray
+    reaching: np.ndarray
+    choice: int
+    ode_calls: int
+
+    @property
+    def foothold(self) -> float:
+        return float(self.x_l[self.choice])
+
+
+def run_depth(mask: np.ndarray) -> np.ndarray:
+    """For each True entry, the number of grid steps to the nearest False one (the array's ends count as
+    False); 0 where ``mask`` is False."""
+    n = mask.size
+    left, right = np.zeros(n, dtype=int), np.zeros(n, dtype=int)
+    for i in range(n):
+        left[i] = left[i - 1] + 1 if mask[i] and i else int(mask[i])
+    for i in range(n - 1, -1, -1):
+        right[i] = right[i + 1] + 1 if mask[i] and i < n - 1 else int(mask[i])
+    return np.minimum(left, right)
+
+
+class GoalReachingExpert:
+    """Labels states (see the module doc). ``spacing`` is the candidate grid; ``search_budget`` the budget of
+    each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching)."""
+
+    def __init__(self, spacing: float = 0.025, controller: StepLengthController | None = None,
+                 max_nodes: int = 3000, max_time_s: float = 2.0):
+        self.spacing = float(spacing)
+        self.controller = controller or StepLengthController.load_default()
+        self.grid = StepSpacePlanner(controller=self.controller, spacing=self.spacing, fallback_spacing=())
+        self.search = StepSpacePlanner(controller=self.controller, max_nodes=max_nodes, max_time_s=max_time_s)
+
+    def label(self, apex, terrain: Terrain, goal_x: float, params: SlipParams) -> ExpertLabel:
+        problem = self.grid.problem(apex, terrain, goal_x, params, time.perf_counter())
+        x_l = self.grid.candidates(problem.apex, terrain, params, self.spacing, until=problem.window_end)
+        theta = self.grid.aim(problem.apex, x_l, terrain, params)
+        ok, apexes = self.grid.simulate(problem, problem.apex, x_l, theta)
+        calls = int(np.count_nonzero(~np.isnan(theta)))
+        reaching = ok & (x_l >= problem.target_x)
+        for i in np.flatnonzero(ok & ~reaching):
+            result = self.search.search(apexes[i], terrain, goal_x, params)
+            calls += result.ode_calls
+            reaching[i] = bool(result.tree.goals)
+        if not reaching.any():
+            return ExpertLabel(x_l, reaching, -1, calls)
+        depth = run_depth(reaching)
+        return ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls)
+
+    def rollout(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams,
+                rng: np.random.Generator, explore: float = 0.0, max_hops: int = 40) -> list:
+        """States from ``apex`` to the goal, each hop to the expert's choice or, with probability ``explore``,
+        to a random goal-reaching candidate (so the data covers states next to the expert's path). Returns
+        [(apex, label, executed foothold)], ending at the goal, a state with no goal-reaching candidate (its
+        label has choice -1) or a failed hop."""
+        from .evaluation import perceived  # the robot's window, as the harness gives it to the planner
+
+        states = []
+        for _ in range(max_hops):
+            window = perceived(terrain, apex.x)
+            label = self.label(apex, window, goal_x, params)
+            if label.choice < 0:
+                states.append((apex, label, float("nan")))
+                break
+            x = label.foothold
+            if rng.random() < explore:
+                x = float(rng.choice(label.x_l[label.reaching]))
+            states.append((apex, label, x))
+            hop = step(apex, self.controller.leg_angle(apex, x, window), terrain, params)
+            if not hop.ok:
+                break
+            apex = ApexState(*map(float, hop.next_apex))
+            if apex.x >= goal_x:
+                break
+        return states

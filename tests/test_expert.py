@@ -1,0 +1,68 @@
+"""The goal-reaching expert (planners/expert.py) and the sequences made from its rollouts."""
+import numpy as np
+import pytest
+
+import drakeslip as ds
+from planners.dataset import DatasetConfig, instance, instance_sequences
+from planners.evaluation import perceived
+from planners.expert import GoalReachingExpert, run_depth
+from planners.lstm_inputs import encode_window
+from planners.step_space import StepSpacePlanner
+
+
+def test_run_depth_counts_steps_to_the_nearest_gap():
+    mask = np.array([1, 1, 1, 0, 1, 1, 1, 1, 1, 0, 1], dtype=bool)
+    assert run_depth(mask).tolist() == [1, 2, 1, 0, 1, 2, 3, 2, 1, 0, 1]
+    assert run_depth(np.zeros(3, dtype=bool)).tolist() == [0, 0, 0]
+
+
+def test_expert_choice_hops_and_leaves_a_plan_to_the_goal():
+    """The choice is goal-reaching: its hop works and Step-space plans on to the target from where it lands;
+    it is at least as deep inside the goal-reaching candidates as any other."""
+    terrain, params = ds.ditch_world(1003), ds.SlipParams()
+    apex = ds.ApexState(0.0, 0.8, 1.5)
+    expert = GoalReachingExpert()
+    window = perceived(terrain, apex.x)
+    label = expert.label(apex, window, 10.0, params)
+    assert label.choice >= 0 and label.reaching[label.choice] and label.ode_calls > 0
+    depth = run_depth(label.reaching)
+    assert depth[label.choice] == depth.max()
+    hop = ds.step(apex, expert.controller.leg_angle(apex, label.foothold, window), terrain, params)
+    assert hop.ok and abs(hop.touchdown_x - label.foothold) < 0.02
+    plan = StepSpacePlanner().plan(hop.next_apex, window, 10.0, params)
+    assert plan.success
+
+
+def test_expert_sequences_follow_the_rollout():
+    """Every label is one of its step's goal-reaching bins, sequences move forward, and a seed fixes them."""
+    cfg = DatasetConfig(planner="expert", subcells=4, min_steps=1, n_terrains=2, apexes_per_terrain=1,
+                        friction=0.8, seed=4, explore=0.5)
+    arrays = instance_sequences(cfg, 0)
+    steps, viable = arrays["steps"], arrays["viable"]
+    assert steps.shape[0] >= 2 and steps.max() < 440
+    rows, cols = np.nonzero(steps >= 0)
+    assert np.all(viable[rows, cols, steps[rows, cols]])
+    assert not viable[steps < 0].any()
+    assert all(np.all(np.diff(s[s >= 0]) > 0) for s in steps)
+    _, terrain, apex = instance(cfg, 0)
+    assert arrays["s0"][0] == encode_window(terrain, apex).s0_bin(4)
+    again = instance_sequences(cfg, 0)
+    assert np.array_equal(again["steps"], steps) and np.array_equal(again["apex"], arrays["apex"])
+    with pytest.raises(ValueError, match="explore"):
+        DatasetConfig(planner="expert", explore=1.5)
+
+
+def test_committed_expert_model_plans_one_hop_that_works():
+    """The mode planner with the expert-trained model (one step ahead) picks, from the suites' start states on a
+    ditch terrain, a first foothold whose hop works and lands where it aimed; zero step-map calls."""
+    import planners
+    from planners.lstm_planner import EXPERT_WEIGHTS
+
+    terrain, params = perceived(ds.ditch_world(1003), -1.0), ds.SlipParams(friction=0.8)
+    planner = planners.make("lstm", weights=str(EXPERT_WEIGHTS), max_steps=1)
+    assert planner.model.config.hidden == 256 and planner.model.config.subcells == 4
+    for apex in [(-1.0, 0.8, 1.0), (-1.0, 1.0, 2.0), (-1.0, 0.8, 3.0)]:
+        plan = planner.plan(apex, terrain, 10.0, params)
+        assert plan.success and plan.ode_calls == 0 and plan.footholds.size == 1
+        hop = ds.step(apex, plan.leg_angles[0], terrain, params)
+        assert hop.ok and abs(hop.touchdown_x - plan.footholds[0]) < 0.02
