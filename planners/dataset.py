@@ -168,6 +168,7 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     params = SlipParams(friction=cfg.friction)
     expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells)
     states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore)
+    ode_calls = sum(label.ode_calls for _, label, _ in states)
     states = [s for s in states if s[1].choice >= 0]
     rows = []
     for k, (a, _, _) in enumerate(states):
@@ -195,7 +196,7 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     return {"terrain": np.array([r[0].terrain for r in rows]).reshape(n, 110),
             "apex": np.array([r[0].apex for r in rows]).reshape(n, 3),
             "s0": np.array([r[0].s0_bin(cfg.subcells) for r in rows], dtype=np.int16), "steps": steps,
-            "viable": viable, "family": family, "ode_calls": sum(s[1].ode_calls for s in states), "nodes": len(states)}
+            "viable": viable, "family": family, "ode_calls": ode_calls, "nodes": len(states)}
 
 
 def shard_path(folder: str, k: int) -> str:
