@@ -53,8 +53,10 @@ def run_depth(mask: np.ndarray) -> np.ndarray:
 
 
 class GoalReachingExpert:
-    """Labels states (see the module doc). ``spacing`` is the candidate grid; ``search_budget`` the budget of
-    each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching)."""
+    """Labels states (see the module doc). ``spacing`` is the candidate grid; ``max_nodes`` and ``max_time_s``
+    bound each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching;
+    the node budget is the one that binds in practice, while the time budget, where it binds, makes a label
+    depend on the machine's speed)."""
 
     def __init__(self, spacing: float = 0.025, controller: StepLengthController | None = None,
                  max_nodes: int = 3000, max_time_s: float = 2.0):
