@@ -141,23 +141,38 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
         bins = bins[:inside.argmin()] if not inside.all() else bins  # cut at the window's edge
         sets = np.zeros((bins.size, n_bins), dtype=bool)
         for row, node in zip(sets, nodes):
-            there = enc.bin_of([tree.foothold[k] for k in siblings[tree.parent[node]]], cfg.subcells)
-            row[there[(there >= 0) & (there < n_bins)]] = True
+            row[:] = window_bins(enc, [tree.foothold[k] for k in siblings[tree.parent[node]]], cfg.subcells)
         steps.append(bins)
         viable.append(sets)
     if len(steps) > cfg.max_paths_per_instance:
         keep = np.random.default_rng([cfg.seed, i, 1]).choice(len(steps), cfg.max_paths_per_instance, replace=False)
         steps, viable = [steps[k] for k in sorted(keep)], [viable[k] for k in sorted(keep)]
+    padded, sets = pack_sequences(steps, viable, n_bins)
+    n = len(steps)
+    return {"terrain": np.repeat(enc.terrain[None], n, axis=0), "apex": np.repeat(enc.apex[None], n, axis=0),
+            "s0": np.full(n, enc.s0_bin(cfg.subcells), dtype=np.int16), "steps": padded, "viable": sets,
+            "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+
+
+def window_bins(enc, footholds, subcells: int) -> np.ndarray:
+    """One bool per output bin of the window, True at the bins of the ``footholds`` that fall inside it."""
+    n_bins = enc.terrain.size * subcells
+    there = enc.bin_of(footholds, subcells)
+    row = np.zeros(n_bins, dtype=bool)
+    row[there[(there >= 0) & (there < n_bins)]] = True
+    return row
+
+
+def pack_sequences(steps: list, viable: list, n_bins: int) -> tuple[np.ndarray, np.ndarray]:
+    """Sequences of several lengths as arrays: their bins padded with -1, (N, T), and their steps' viable sets
+    padded with empty sets, (N, T, n_bins)."""
     t_max = max((s.size for s in steps), default=0)
     padded = np.full((len(steps), t_max), -1, dtype=np.int16)
     sets = np.zeros((len(steps), t_max, n_bins), dtype=bool)
     for row, s, v, out in zip(padded, steps, viable, sets):
         row[:s.size] = s
         out[:s.size] = v
-    n = len(steps)
-    return {"terrain": np.repeat(enc.terrain[None], n, axis=0), "apex": np.repeat(enc.apex[None], n, axis=0),
-            "s0": np.full(n, enc.s0_bin(cfg.subcells), dtype=np.int16), "steps": padded, "viable": sets,
-            "family": family, "ode_calls": result.ode_calls, "nodes": result.nodes_expanded}
+    return padded, sets
 
 
 def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
@@ -170,33 +185,28 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore)
     ode_calls = sum(label.ode_calls for _, label, _ in states)
     states = [s for s in states if s[1].choice >= 0]
-    rows = []
+    encs, steps, viable = [], [], []
     for k, (a, _, _) in enumerate(states):
         enc = encode_window(terrain, a)
-        n_bins = enc.terrain.size * cfg.subcells
         bins, sets = [], []
         for _, label, executed in states[k:k + cfg.max_steps]:
             b = int(enc.bin_of(label.foothold, cfg.subcells))
-            if not 0 <= b < n_bins:
+            if not 0 <= b < enc.terrain.size * cfg.subcells:
                 break
-            there = enc.bin_of(label.x_l[label.reaching], cfg.subcells)
-            row = np.zeros(n_bins, dtype=bool)
-            row[there[(there >= 0) & (there < n_bins)]] = True
             bins.append(b)
-            sets.append(row)
+            sets.append(window_bins(enc, label.x_l[label.reaching], cfg.subcells))
             if executed != label.foothold:
                 break
         if len(bins) >= cfg.min_steps:
-            rows.append((enc, np.array(bins), np.array(sets)))
-    n, t_max, n_bins = len(rows), max((r[1].size for r in rows), default=0), 110 * cfg.subcells
-    steps = np.full((n, t_max), -1, dtype=np.int16)
-    viable = np.zeros((n, t_max, n_bins), dtype=bool)
-    for j, (_, b, v) in enumerate(rows):
-        steps[j, :b.size], viable[j, :b.size] = b, v
-    return {"terrain": np.array([r[0].terrain for r in rows]).reshape(n, 110),
-            "apex": np.array([r[0].apex for r in rows]).reshape(n, 3),
-            "s0": np.array([r[0].s0_bin(cfg.subcells) for r in rows], dtype=np.int16), "steps": steps,
-            "viable": viable, "family": family, "ode_calls": ode_calls, "nodes": len(states)}
+            encs.append(enc)
+            steps.append(np.array(bins))
+            viable.append(np.array(sets))
+    padded, sets = pack_sequences(steps, viable, 110 * cfg.subcells)
+    n = len(encs)
+    return {"terrain": np.array([e.terrain for e in encs]).reshape(n, 110),
+            "apex": np.array([e.apex for e in encs]).reshape(n, 3),
+            "s0": np.array([e.s0_bin(cfg.subcells) for e in encs], dtype=np.int16), "steps": padded,
+            "viable": sets, "family": family, "ode_calls": ode_calls, "nodes": len(states)}
 
 
 def shard_path(folder: str, k: int) -> str:

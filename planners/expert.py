@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, Terrain, step
+from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import StepLengthController
 
 from .step_space import StepSpacePlanner
@@ -54,9 +54,9 @@ def run_depth(mask: np.ndarray) -> np.ndarray:
 
 class GoalReachingExpert:
     """Labels states (see the module doc). ``spacing`` is the candidate grid; ``max_nodes`` and ``max_time_s``
-    bound each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching;
-    the node budget is the one that binds in practice, while the time budget, where it binds, makes a label
-    depend on the machine's speed)."""
+    bound each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching).
+    The time budget is the one that binds for a candidate with no way on, so a label can depend on the
+    machine's speed, and a state with no goal-reaching candidate costs up to ``max_time_s`` per candidate."""
 
     def __init__(self, spacing: float = 0.025, controller: StepLengthController | None = None,
                  max_nodes: int = 3000, max_time_s: float = 2.0):
@@ -87,7 +87,7 @@ class GoalReachingExpert:
         to a random goal-reaching candidate (so the data covers states next to the expert's path). Returns
         [(apex, label, executed foothold)], ending at the goal, a state with no goal-reaching candidate (its
         label has choice -1) or a failed hop."""
-        from .evaluation import perceived  # the robot's window, as the harness gives it to the planner
+        from .evaluation import execute, perceived  # the harness's window and execution
 
         states = []
         for _ in range(max_hops):
@@ -100,10 +100,10 @@ class GoalReachingExpert:
             if rng.random() < explore:
                 x = float(rng.choice(label.x_l[label.reaching]))
             states.append((apex, label, x))
-            hop = step(apex, self.controller.leg_angle(apex, x, window), terrain, params)
-            if not hop.ok:
+            hop = execute(apex, [x], self.controller, terrain, params, backend="fast")
+            if hop.failure is not None:
                 break
-            apex = ApexState(*map(float, hop.next_apex))
+            apex = ApexState(*map(float, hop.apexes[-1]))
             if apex.x >= goal_x:
                 break
         return states
