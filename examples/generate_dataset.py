@@ -3,6 +3,9 @@
     python3 examples/generate_dataset.py --out data/footsteps --jobs 2      # Table I: the committed model's data
     python3 examples/generate_dataset.py --planner step --min-steps 3 --start-x -1 --heights 0.55,1.1 \
         --speeds 0.4,3.2 --out data/steps --jobs 2                         # the Step-space ablation (README)
+    python3 examples/generate_dataset.py --planner expert --policy out/lstm_expert_round0.pt --explore 0.1 \
+        --subcells 4 --min-steps 1 --start-x -1 --heights 0.55,1.1 --speeds 0.4,3.2 --friction 0.8 \
+        --terrains 500 --seed 1 --out data/dagger1 --jobs 2     # a DAgger round (docs/results.md, "DAgger")
     python3 examples/generate_dataset.py --out data/footsteps --executor ray [--ray-address auto]
 
 Shards are written atomically; rerunning the same command resumes and only generates the missing shards.
@@ -53,6 +56,9 @@ def main(argv=None):
                          "expert whose rollouts do (planners/expert.py)")
     ap.add_argument("--explore", type=float, default=DatasetConfig.explore,
                     help="--planner expert: chance a rollout hops to a random goal-reaching foothold")
+    ap.add_argument("--policy", default="",
+                    help="--planner expert: footstep model weights whose one-step mode planner the rollouts "
+                         "follow while it stays goal-reaching (DAgger)")
     ap.add_argument("--subcells", type=int, default=DatasetConfig.subcells,
                     help="output bins per 10 cm cell (1: the paper's); with --planner step, its foothold grid")
     ap.add_argument("--min-steps", type=int, default=DatasetConfig.min_steps, help="shortest sequence kept")
@@ -76,7 +82,7 @@ def main(argv=None):
                             height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
                             n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
                             friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size,
-                            subcells=args.subcells, explore=args.explore)
+                            subcells=args.subcells, explore=args.explore, policy=args.policy)
     except ValueError as error:
         ap.error(str(error))
     write_manifest(cfg, args.out)

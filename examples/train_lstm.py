@@ -24,7 +24,8 @@ from planners.lstm_train import TrainConfig, train  # noqa: E402
 def main(argv=None):
     d = TrainConfig()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=d.data)
+    ap.add_argument("--data", default=d.data, help="dataset folder, or several comma-separated")
+    ap.add_argument("--init", default=d.init, help="weights to fine-tune instead of training a fresh model")
     ap.add_argument("--out", default=d.out)
     ap.add_argument("--checkpoint", default=d.checkpoint, help="resumable training state ('' to disable)")
     ap.add_argument("--epochs", type=int, default=d.epochs)
@@ -43,11 +44,14 @@ def main(argv=None):
     args = ap.parse_args(argv)
     if args.hidden < 1 or args.channels < 1:
         ap.error(f"--hidden and --channels must be positive, got {args.hidden} and {args.channels}")
+    if args.init and not os.path.isfile(args.init):
+        ap.error(f"--init: no weights file {args.init!r}")
     if args.threads:
         torch.set_num_threads(args.threads)
     cfg = TrainConfig(data=args.data, out=args.out, checkpoint=args.checkpoint, epochs=args.epochs,
                       batch_size=args.batch_size, lr=args.lr, own_inputs=args.own_inputs, seed=args.seed,
-                      device=args.device, max_sequences=args.max_sequences, viable_weight=args.viable_weight)
+                      device=args.device, max_sequences=args.max_sequences, viable_weight=args.viable_weight,
+                      init=args.init)
     t0 = time.perf_counter()
     summary = train(cfg, width=(args.hidden, args.channels))
     last = summary["history"][-1] if summary["history"] else {}

@@ -24,6 +24,7 @@ from drakeslip.files import atomic_write
 
 from .angle_space import AngleSpacePlanner
 from .expert import GoalReachingExpert
+from .lstm_planner import LSTMPlanner
 from .step_space import StepSpacePlanner
 from .lstm_inputs import encode_window, pad_steps
 
@@ -59,10 +60,17 @@ class DatasetConfig:
     instances_per_shard: int = 16
     seed: int = 0
     explore: float = 0.3                # "expert": chance a rollout hops to a random goal-reaching foothold
+    expert_max_nodes: int = 300         # "expert": node budget of its searches (GoalReachingExpert)
+    policy: str = ""                    # "expert": weights of a footstep model whose one-step mode planner the
+                                        # rollouts follow where it stays goal-reaching (DAgger; expert.py)
 
     def __post_init__(self):
         if self.planner not in ("angle", "step", "expert"):
             raise ValueError(f"DatasetConfig.planner must be 'angle', 'step' or 'expert', got {self.planner!r}")
+        if self.policy and self.planner != "expert":
+            raise ValueError(f"DatasetConfig.policy is for planner='expert', not {self.planner!r}")
+        if self.policy and not os.path.isfile(self.policy):
+            raise ValueError(f"DatasetConfig.policy: no weights file {self.policy!r}")
         if not 0.0 <= self.explore <= 1.0:
             raise ValueError(f"DatasetConfig.explore must be a probability, got {self.explore!r}")
         for name in ("height_range", "speed_range"):
@@ -73,7 +81,7 @@ class DatasetConfig:
         if unknown:
             raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
         for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
-                     "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells"):
+                     "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells", "expert_max_nodes"):
             if getattr(self, name) < 1:
                 raise ValueError(f"DatasetConfig.{name} must be at least 1, got {getattr(self, name)}")
 
@@ -177,12 +185,14 @@ def pack_sequences(steps: list, viable: list, n_bins: int) -> tuple[np.ndarray, 
 
 def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     """Instance i's expert rollout as sequences: one from every state it labelled, following the expert's
-    choices up to the first hop that explored elsewhere (that step's label is the sequence's last). A step's
-    viable set is its state's goal-reaching candidates."""
+    choices up to the first hop that went elsewhere (explored, or followed cfg.policy; that step's label is the
+    sequence's last). A step's viable set is its state's goal-reaching candidates."""
     family, terrain, apex = instance(cfg, i)
     params = SlipParams(friction=cfg.friction)
-    expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells)
-    states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore)
+    expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells, max_nodes=cfg.expert_max_nodes)
+    policy = LSTMPlanner(weights=cfg.policy, max_steps=1, controller=expert.controller) if cfg.policy else None
+    states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore,
+                            policy=policy)
     ode_calls = sum(label.ode_calls for _, label, _ in states)
     states = [s for s in states if s[1].choice >= 0]
     encs, steps, viable = [], [], []

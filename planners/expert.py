@@ -11,6 +11,10 @@ keeps the most room for error on the way to the goal instead:
   the target (the goal, or the end of what the robot sees);
 - the label is the goal-reaching candidate deepest inside its run of goal-reaching neighbours (ties: the
   farthest), so a foothold missed by a few centimetres still leaves a way on.
+
+A model trained on the expert's own rollouts sees only the states the expert visits; ``rollout(policy=...)``
+follows a trained planner instead (DAgger), so the next round of data holds the states the model gets itself
+into, each with the expert's label.
 """
 from __future__ import annotations
 
@@ -53,13 +57,13 @@ def run_depth(mask: np.ndarray) -> np.ndarray:
 
 
 class GoalReachingExpert:
-    """Labels states (see the module doc). ``spacing`` is the candidate grid; ``max_nodes`` and ``max_time_s``
-    bound each Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching).
-    The time budget is the one that binds for a candidate with no way on, so a label can depend on the
-    machine's speed, and a state with no goal-reaching candidate costs up to ``max_time_s`` per candidate."""
+    """Labels states (see the module doc). ``spacing`` is the candidate grid; ``max_nodes`` bounds each
+    Step-space search from a candidate's apex (a search that runs out counts as not goal-reaching). The
+    searches that reach the goal expand a few dozen nodes, and the node budget, unlike a time budget, gives
+    the same labels on any machine; ``max_time_s`` is only a safety net."""
 
     def __init__(self, spacing: float = 0.025, controller: StepLengthController | None = None,
-                 max_nodes: int = 3000, max_time_s: float = 2.0):
+                 max_nodes: int = 300, max_time_s: float = 600.0):
         self.spacing = float(spacing)
         self.controller = controller or StepLengthController.load_default()
         self.grid = StepSpacePlanner(controller=self.controller, spacing=self.spacing, fallback_spacing=())
@@ -81,12 +85,20 @@ class GoalReachingExpert:
         depth = run_depth(reaching)
         return ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls)
 
+    def goal_reaching(self, label: ExpertLabel, x: float) -> bool:
+        """Whether foothold ``x`` is one of ``label``'s goal-reaching candidates."""
+        j = int(np.abs(label.x_l - x).argmin())
+        return bool(label.reaching[j]) and abs(label.x_l[j] - x) < self.spacing / 2
+
     def rollout(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams,
-                rng: np.random.Generator, explore: float = 0.0, max_hops: int = 40) -> list:
+                rng: np.random.Generator, explore: float = 0.0, max_hops: int = 40, policy=None) -> list:
         """States from ``apex`` to the goal, each hop to the expert's choice or, with probability ``explore``,
-        to a random goal-reaching candidate (so the data covers states next to the expert's path). Returns
-        [(apex, label, executed foothold)], ending at the goal, a state with no goal-reaching candidate (its
-        label has choice -1) or a failed hop."""
+        to a random goal-reaching candidate (so the data covers states next to the expert's path). With a
+        ``policy`` (a planner, e.g. the one-step LSTM mode planner) a hop that does not explore goes to the
+        policy's first foothold when that is goal-reaching and to the expert's choice when it is not: the
+        states are then the ones the learned planner visits, labelled by the expert also where the planner
+        would go wrong (DAgger, Ross et al. 2011). Returns [(apex, label, executed foothold)], ending at the
+        goal, a state with no goal-reaching candidate (its label has choice -1) or a failed hop."""
         from .evaluation import execute, perceived  # the harness's window and execution
 
         states = []
@@ -99,6 +111,10 @@ class GoalReachingExpert:
             x = label.foothold
             if rng.random() < explore:
                 x = float(rng.choice(label.x_l[label.reaching]))
+            elif policy is not None:
+                mine = policy.plan(apex, window, goal_x, params)
+                if mine.success and self.goal_reaching(label, mine.footholds[0]):
+                    x = float(mine.footholds[0])
             states.append((apex, label, x))
             hop = execute(apex, [x], self.controller, terrain, params, backend="fast")
             if hop.failure is not None:

@@ -19,8 +19,8 @@ from .search import clear_of_edges
 
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "lstm.pt"            # the paper's model (Table I data)
 SUBCELL_WEIGHTS = DEFAULT_WEIGHTS.with_name("lstm_subcell.pt")  # beyond the paper: 2.5 cm bins, viable sets
-# beyond the paper, for the mode planner: trained on the goal-reaching expert's rollouts (planners/expert.py),
-# 256 LSTM units and 32 CNN channels; use with max_steps=1 (docs/results.md, "The mode planner")
+# beyond the paper, for the mode planner: trained on the goal-reaching expert's rollouts (planners/expert.py) and
+# two DAgger rounds, 256 LSTM units and 32 CNN channels; use with max_steps=1 (docs/results.md, "DAgger")
 EXPERT_WEIGHTS = DEFAULT_WEIGHTS.with_name("lstm_expert.pt")
 _MODELS: dict = {}
 

@@ -23,7 +23,7 @@ from .lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkp
 
 @dataclass
 class TrainConfig:
-    data: str = "data/footsteps"        # folder of dataset shards (*.npz) written by generate_dataset
+    data: str = "data/footsteps"        # folder(s) of dataset shards (*.npz) written by generate_dataset, comma-separated
     out: str = "planners/weights/lstm.pt"
     checkpoint: str = "out/lstm_checkpoint.pt"
     epochs: int = 30
@@ -36,15 +36,19 @@ class TrainConfig:
     seed: int = 0
     device: str = "cpu"
     max_sequences: int = 0              # 0 = all
+    init: str = ""                      # weights to start from (fine-tuning, e.g. on DAgger data) instead of a fresh model
 
 
 def load_dataset(folder: str, max_sequences: int = 0) -> tuple[dict, int]:
-    """Concatenate the shards in ``folder`` into arrays: terrain (N, n), apex (N, 3), s0 (N,), steps (N, T)
-    with -1 padding, as output bins; ``subcells`` is the bins per cell (1 for shards that predate it)."""
-    files = sorted(f for f in os.listdir(folder) if f.endswith(".npz"))
-    if not files:
-        raise ValueError(f"no dataset shards (*.npz) in {folder}")
-    parts = [np.load(os.path.join(folder, f)) for f in files]
+    """Concatenate the shards in ``folder`` (or several, comma-separated) into arrays: terrain (N, n), apex
+    (N, 3), s0 (N,), steps (N, T) with -1 padding, as output bins; ``subcells`` is the bins per cell (1 for
+    shards that predate it)."""
+    parts = []
+    for one in folder.split(","):
+        files = sorted(f for f in os.listdir(one) if f.endswith(".npz"))
+        if not files:
+            raise ValueError(f"no dataset shards (*.npz) in {one}")
+        parts += [np.load(os.path.join(one, f)) for f in files]
     t_max = max(p["steps"].shape[1] for p in parts)
     steps = np.concatenate([pad_steps(p["steps"], t_max, -1) for p in parts])
     data = {"terrain": np.concatenate([p["terrain"] for p in parts]).astype(np.float32),
@@ -132,14 +136,19 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
           width: tuple = (ModelConfig.hidden, ModelConfig.channels)) -> dict:
     """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``. The model's bins
     per cell come from the dataset and its (LSTM units, CNN channels) from ``width`` unless ``model_config``
-    is given."""
+    is given, or from ``cfg.init``'s weights, which training then starts from."""
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
     data, subcells = load_dataset(cfg.data, cfg.max_sequences)
     if cfg.viable_weight > 0 and "viable" not in data:
         raise ValueError(f"viable_weight={cfg.viable_weight} needs viable sets, which the shards in {cfg.data} "
                          "predate; regenerate them")
-    model_config = model_config or ModelConfig(subcells=subcells, hidden=width[0], channels=width[1])
+    if cfg.init:
+        model = load_checkpoint(cfg.init)[0].to(cfg.device).train()
+        model_config = model.config
+    else:
+        model_config = model_config or ModelConfig(subcells=subcells, hidden=width[0], channels=width[1])
+        model = FootstepModel(model_config).to(cfg.device)
     n = data["terrain"].shape[0]
     if data["terrain"].shape[1] != model_config.n_cells or subcells != model_config.subcells:
         raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells of {subcells} bins, model expects "
@@ -148,7 +157,6 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
     n_val = max(1, int(round(cfg.val_fraction * n)))
     val_idx, train_idx = order[:n_val], order[n_val:]
 
-    model = FootstepModel(model_config).to(cfg.device)
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     history, start_epoch, best = [], 0, math.inf
     if cfg.checkpoint and os.path.exists(cfg.checkpoint):

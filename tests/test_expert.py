@@ -66,3 +66,35 @@ def test_committed_expert_model_plans_one_hop_that_works():
         assert plan.success and plan.ode_calls == 0 and plan.footholds.size == 1
         hop = ds.step(apex, plan.leg_angles[0], terrain, params)
         assert hop.ok and abs(hop.touchdown_x - plan.footholds[0]) < 0.02
+
+
+class _Policy:
+    """A stand-in for a learned planner that always proposes the same offset from the apex."""
+
+    def __init__(self, offset):
+        self.offset = offset
+
+    def plan(self, apex, terrain, goal_x, params):
+        from planners.base import FootstepSequence, Plan
+
+        x = np.array([apex.x + self.offset])
+        return Plan("policy", True, goal_x, sequences=[FootstepSequence(x, np.full(1, np.nan), np.full((1, 3), np.nan))])
+
+
+def test_dagger_rollout_follows_the_policy_only_where_it_reaches_the_goal():
+    """With a policy the rollout hops to the policy's foothold when it is goal-reaching and to the expert's
+    choice otherwise; a policy that is never goal-reaching leaves the expert's own rollout."""
+    import planners
+    from planners.lstm_planner import EXPERT_WEIGHTS
+
+    terrain, params, apex = ds.step_world(1005), ds.SlipParams(friction=0.8), ds.ApexState(-1.0, 0.9, 1.5)
+    expert = GoalReachingExpert()
+    learned = planners.make("lstm", weights=str(EXPERT_WEIGHTS), max_steps=1, controller=expert.controller)
+    states = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0), policy=learned)
+    labelled = [(label, x) for _, label, x in states if label.choice >= 0]
+    assert len(labelled) >= 5 and all(expert.goal_reaching(label, x) for label, x in labelled)
+    assert any(x != label.foothold for label, x in labelled)  # the policy was followed somewhere
+    own = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0))
+    behind = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0), policy=_Policy(-3.0))
+    assert [x for *_, x in behind] == [x for *_, x in own]
+    assert all(x == label.foothold for _, label, x in own if label.choice >= 0)

@@ -217,6 +217,19 @@ def test_training_width_is_configurable(tiny_dataset, tmp_path):
     assert (model.config.hidden, model.config.channels) == (24, 3)
 
 
+def test_fine_tuning_starts_from_the_given_weights(tiny_dataset, tmp_path):
+    """examples/train_lstm.py --init: with a zero learning rate the fine-tuned weights are the initial ones
+    (a fresh model would differ); several dataset folders load as one."""
+    first = TrainConfig(data=tiny_dataset, out=str(tmp_path / "a.pt"), checkpoint="", epochs=1, batch_size=32)
+    train(first, log=lambda *_: None, width=(24, 3))
+    tuned = TrainConfig(data=f"{tiny_dataset},{tiny_dataset}", out=str(tmp_path / "b.pt"), checkpoint="", epochs=1,
+                        batch_size=32, lr=0.0, weight_decay=0.0, init=first.out)
+    summary = train(tuned, log=lambda *_: None)
+    assert summary["n_train"] + summary["n_val"] == 2 * load_dataset(tiny_dataset)[0]["s0"].size
+    a, b = load_checkpoint(first.out)[0].state_dict(), load_checkpoint(tuned.out)[0].state_dict()
+    assert all(torch.equal(a[k], b[k]) for k in a)
+
+
 def test_learned_planners_with_the_committed_weights():
     """The committed model plans a ditch terrain: LSTM-guided within the controller's reach and with far fewer
     step-map calls than Step-space, deterministically; the LSTM's footholds are usable (ahead of each other,
