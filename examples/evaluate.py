@@ -25,9 +25,8 @@ import shlex
 import sys
 from pathlib import Path
 
-from planners import available
-from planners.evaluation import (EvalConfig, evaluate, make_planners, planner_name, ratios, table,
-                                 write_json)
+from planners import available, planner_name
+from planners.evaluation import EvalConfig, evaluate, make_planners, ratios, table, write_json
 from planners.suite import load_suite
 
 

@@ -18,7 +18,8 @@ from pathlib import Path
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from drakeslip.files import atomic_write  # noqa: E402
-from planners.evaluation import EvalConfig, evaluate, planner_name, write_json  # noqa: E402
+from planners import planner_name  # noqa: E402
+from planners.evaluation import EvalConfig, evaluate, write_json  # noqa: E402
 from planners.lstm_planner import EXPERT_WEIGHTS, SUBCELL_WEIGHTS  # noqa: E402
 from planners.suite import load_suite  # noqa: E402
 

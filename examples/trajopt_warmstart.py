@@ -4,6 +4,14 @@
     python examples/trajopt_warmstart.py --suite out/fresh/step-7000.json --every 7 \\
         --seeds cold,heuristic,step,lstm --out out/trajopt-step-7000.json
 
+A seed may be given as NAME@VARIANT, with options for its planner keyed by that label, so two settings of one
+seed run side by side:
+
+    python examples/trajopt_warmstart.py --suite out/fresh/step-9000.json --every 3 --cases 50 \\
+        --seeds cold,lstm-guided,lstm-guided@expert --out out/trajopt-expert.json \\
+        --options '{"lstm-guided@expert": {"weights": "planners/weights/lstm_expert.pt", "lazy": true,
+                    "conditioning": "apex"}}'
+
 Each case is one planning query, the perception-window problem of the case's start apex toward the suite's goal
 (the target is 1 m short of the window's far edge, as for every planner). Each seed proposes footholds on the
 window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/trajopt.py); the optimized leg
@@ -32,7 +40,7 @@ from drakeslip import SlipParams
 from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
 from planners.evaluation import perceived
 from planners.suite import load_suite
-from planners.trajopt import SEEDS, TrajoptConfig, make_problem, optimize
+from planners.trajopt import SEEDS, TrajoptConfig, check_seed, make_problem, optimize
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
 
@@ -74,11 +82,12 @@ def summarize(cases: list) -> dict:
 
 def table(results: dict) -> str:
     fmt = lambda v, spec: "-" if v is None else format(v, spec)
+    w = max(11, *(len(name) for name in results["seeds"]))
     rows = [f"Trajectory optimization on {results['suite']} ({results['cases_n']} cases)",
-            f"{'seed':<11} {'converged %':>11} {'verified %':>10} {'1st start %':>11} {'drake ok %':>10} "
+            f"{'seed':<{w}} {'converged %':>11} {'verified %':>10} {'1st start %':>11} {'drake ok %':>10} "
             f"{'seed ok %':>9} {'no seed':>7} {'solve median':>12} {'iters median':>12} {'hops median':>11}"]
     for name, r in results["seeds"].items():
-        rows.append(f"{name:<11} {100 * r['converged_rate']:>11.1f} {100 * r['verified_rate']:>10.1f} "
+        rows.append(f"{name:<{w}} {100 * r['converged_rate']:>11.1f} {100 * r['verified_rate']:>10.1f} "
                     f"{100 * r['first_start_verified_rate']:>11.1f} {100 * r['drake_ok_rate']:>10.1f} "
                     f"{100 * r['seed_fast_ok_rate']:>9.1f} {r['seed_errors']:>7d} "
                     f"{fmt(r['solve_time_median_s'], '.2f'):>11}s {fmt(r['iterations_median'], 'g'):>12} "
@@ -96,7 +105,11 @@ def main(argv=None):
     ap.add_argument("--every", type=int, default=1,
                     help="take every K-th case of the suite (suites list 10 starts per terrain: K = 7 spreads "
                          "the cases over every terrain and every start)")
-    ap.add_argument("--seeds", default="cold,heuristic,step,lstm", help=f"comma-separated, of {list(SEEDS)}")
+    ap.add_argument("--seeds", default="cold,heuristic,step,lstm",
+                    help=f"comma-separated, of {list(SEEDS)}, each optionally NAME@VARIANT")
+    ap.add_argument("--options", default="{}",
+                    help="options for the seeds' planners as JSON keyed by seed label, e.g. "
+                         '\'{"lstm-guided@lazy": {"lazy": true}}\'')
     ap.add_argument("--out", required=True, help="results JSON (written atomically)")
     ap.add_argument("--knots", type=int, default=TrajoptConfig.knots, help="stance knots per hop minus one")
     ap.add_argument("--collocation", default=TrajoptConfig.collocation, choices=("chebyshev", "hermite-simpson"))
@@ -113,9 +126,19 @@ def main(argv=None):
     print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
     seeds = [s for s in args.seeds.split(",") if s]
-    unknown = [s for s in seeds if s not in SEEDS]
-    if unknown or not seeds:
-        ap.error(f"unknown seed(s) {unknown}; known seeds: {', '.join(SEEDS)}")
+    if not seeds:
+        ap.error(f"--seeds names no seed; known seeds: {', '.join(SEEDS)}")
+    try:
+        options = json.loads(args.options)
+    except json.JSONDecodeError as error:
+        ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
+    if not isinstance(options, dict) or any(k not in seeds or not isinstance(v, dict) for k, v in options.items()):
+        ap.error(f"--options must map seed labels among {seeds} to option objects, got {args.options!r}")
+    for seed in seeds:
+        try:
+            check_seed(seed, options.get(seed))
+        except ValueError as error:
+            ap.error(str(error))
     if args.every < 1 or (args.cases is not None and args.cases < 1):
         ap.error("--every and --cases must be positive")
     try:
@@ -127,15 +150,19 @@ def main(argv=None):
     cases = list(suite.cases[::args.every])[:args.cases]
     params = SlipParams(friction=suite.friction)
 
-    weights_stamp = ""
-    if args.lstm_weights:  # a retrained checkpoint at the same path must not reuse cached lstm cases
-        st = Path(args.lstm_weights).stat()
-        weights_stamp = f"{st.st_size}:{st.st_mtime_ns}"
+    def stamp(path):  # a retrained checkpoint at the same path must not reuse cached lstm cases
+        st = Path(path).stat()
+        return f"{st.st_size}:{st.st_mtime_ns}"
+
+    weights_stamp = stamp(args.lstm_weights) if args.lstm_weights else ""
     code = source_digest()
     setup = json.dumps([asdict(config), weights_stamp, code, suite.goal_x, suite.friction], sort_keys=True,
                        default=str)
+    seed_setup = {s: [options.get(s, {}), stamp(options[s]["weights"]) if "weights" in options.get(s, {}) else ""]
+                  for s in seeds}
     key = lambda seed, case: hashlib.sha256(
-        json.dumps([setup, seed, case.id, case.terrain.to_dict(), list(case.apex)]).encode()).hexdigest()[:20]
+        json.dumps([setup, seed, seed_setup[seed], case.id, case.terrain.to_dict(), list(case.apex)],
+                   sort_keys=True).encode()).hexdigest()[:20]
     cache_path = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache_path.exists():
         cache_path.unlink()
@@ -152,14 +179,15 @@ def main(argv=None):
                 k = key(seed, case)
                 record = cache.get(k)
                 if record is None:
-                    record = {"id": case.id, **optimize(problem, seed, config, true_terrain=case.terrain)}
+                    record = {"id": case.id, **optimize(problem, seed, config, true_terrain=case.terrain,
+                                                        seed_options=options.get(seed))}
                     append_jsonl(sink, {"key": k, "record": record})
                 done[seed].append(record)
                 bar.update(1)
                 bar.set_postfix({s: f"{sum(r['verified'] for r in d)}/{len(d)}" for s, d in done.items()})
     bar.close()
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
-               "every": args.every, "config": asdict(config),
+               "every": args.every, "config": asdict(config), "options": options,
                "seeds": {s: summarize(done[s]) for s in seeds}}
     with atomic_write(args.out, "w") as f:
         json.dump(results, f, indent=1)

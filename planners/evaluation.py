@@ -17,7 +17,7 @@ from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
 from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
 
-from .registry import make, takes
+from .registry import make, planner_name, takes
 from .suite import Case, Suite
 
 EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
@@ -165,12 +165,6 @@ def ratios(results: dict, baseline: str) -> str:
 # ---- parallel driver with a resumable per-case cache ---------------------------------------------------
 
 _WORKER: dict = {}
-
-
-def planner_name(label: str) -> str:
-    """The registered planner behind a results label: ``NAME`` or ``NAME@VARIANT`` (a variant is the same
-    planner with other options, so two settings can run side by side in one evaluation)."""
-    return label.split("@", 1)[0]
 
 
 def make_planners(planner_specs: dict, controller: StepLengthController | None = None) -> dict:

@@ -15,6 +15,12 @@ def register(name: str):
     return add
 
 
+def planner_name(label: str) -> str:
+    """The registered planner behind a label: ``NAME`` or ``NAME@VARIANT`` (a variant is the same planner with
+    other options, so two settings can run side by side in one evaluation)."""
+    return label.split("@", 1)[0]
+
+
 def available() -> list[str]:
     return sorted(_PLANNERS)
 

@@ -63,6 +63,7 @@ from __future__ import annotations
 
 import functools
 import gc
+import json
 import math
 import os
 import re
@@ -79,7 +80,7 @@ from drakeslip.fast_step import _rk4
 
 from .base import FootstepSequence, Plan, Planner, Problem
 from .generic_slip import Dual, dual_constraint, generic
-from .registry import register
+from .registry import planner_name, register
 
 SEEDS = ("cold", "heuristic", "step", "lstm", "lstm-guided")
 MULTI_START = ("cold", "lstm-guided")  # seeds with more than one start: other strides, other samples
@@ -271,16 +272,22 @@ def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
 
 
 @functools.cache
-def _seed_planner(name: str, max_hops: int, lstm_weights: str | None = None, sample: int = 0):
+def _seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
     import planners
 
+    name, options = planner_name(label), json.loads(options_json)
+    if name.startswith("lstm") and lstm_weights and "weights" not in options:
+        options["weights"] = lstm_weights
     if name == "lstm":  # the model's modes, fed back, for as many steps as the optimization takes
-        return planners.make(name, controller=_controller(), max_steps=max_hops, weights=lstm_weights)
+        options.setdefault("max_steps", max_hops)
     if name == "lstm-guided":  # footholds sampled from the model, each hop checked on the fast step map
-        return planners.make(name, controller=_controller(), weights=lstm_weights, seed=sample)
-    if name == "step":
-        return planners.make(name, controller=_controller())
-    return planners.make(name)
+        options["seed"] = sample
+    if planners.takes(name, "controller"):
+        options["controller"] = _controller()
+    try:
+        return planners.make(name, **options)
+    except (TypeError, ValueError, OSError) as error:  # TypeError: an unknown option; OSError: missing weights
+        raise ValueError(f"options for the {label} seed: {error}") from error
 
 
 @functools.cache
@@ -290,23 +297,38 @@ def _controller():
     return StepLengthController.load_default()
 
 
+def check_seed(seed: str, options: dict | None = None) -> None:
+    """A ValueError unless ``seed`` is a seed name, or ``NAME@VARIANT`` of one, and ``options`` (for the seed's
+    planner) build it; ``cold`` takes no options."""
+    name = planner_name(seed)
+    if name not in SEEDS:
+        raise ValueError(f"unknown seed {seed!r}; known seeds: {', '.join(SEEDS)} (each optionally NAME@VARIANT)")
+    if name == "cold":
+        if options:
+            raise ValueError(f"the {seed} seed is a fixed gait and takes no options, got {options!r}")
+        return
+    _seed_planner(seed, TrajoptConfig.max_hops, None, 0, json.dumps(options or {}, sort_keys=True))
+
+
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
-                   lstm_weights: str | None = None, sample: int = 0) -> tuple[np.ndarray, int]:
+                   lstm_weights: str | None = None, sample: int = 0,
+                   options: dict | None = None) -> tuple[np.ndarray, int]:
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
     past the target, and the step-map calls the seed's planner made (0 for ``cold``).
-    ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model).
-    ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops, the
-    LSTM-guided search with sampling seed ``sample``)."""
-    if name not in SEEDS:
-        raise ValueError(f"unknown seed {name!r}; known seeds: {', '.join(SEEDS)}")
-    if sample and name not in MULTI_START:
+    ``name``: a seed, or ``NAME@VARIANT`` of one with ``options`` for its planner (e.g. ``lstm-guided@expert``
+    with another model and lazy, apex-conditioned sampling), so two settings of a seed can be compared.
+    ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model) unless ``options``
+    name one. ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops,
+    the LSTM-guided search with sampling seed ``sample``)."""
+    check_seed(name, options)
+    if sample and planner_name(name) not in MULTI_START:
         raise ValueError(f"the {name} seed has one start; sample {sample!r} asked for another")
     ode_calls = 0
-    if name == "cold":
+    if planner_name(name) == "cold":
         footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
-        weights = str(lstm_weights) if lstm_weights and name.startswith("lstm") else None
-        planner = _seed_planner(name, max_hops, weights, sample)
+        weights = str(lstm_weights) if lstm_weights else None
+        planner = _seed_planner(name, max_hops, weights, sample, json.dumps(options or {}, sort_keys=True))
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")
@@ -867,8 +889,10 @@ def make_problem(apex, terrain: Terrain, goal_x: float, params: SlipParams | Non
 
 
 def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | None = None,
-             true_terrain: Terrain | None = None, verify_on_drake: bool = True) -> dict:
-    """Seed, build, solve and verify one query. ``seed`` is a seed name or an array of footholds; the problem's
+             true_terrain: Terrain | None = None, verify_on_drake: bool = True,
+             seed_options: dict | None = None) -> dict:
+    """Seed, build, solve and verify one query. ``seed`` is a seed name (or ``NAME@VARIANT`` with
+    ``seed_options`` for its planner, see ``seed_footholds``) or an array of footholds; the problem's
     terrain is what the seed and the optimizer see (the perception window), ``true_terrain`` (default: the
     same) what the solution is verified on. Returns a JSON-ready record: ``converged`` (the solver found a
     locally optimal, feasible point), ``drake_ok`` (its leg angles pass ``verify``) and ``verified`` (both: a
@@ -880,10 +904,10 @@ def optimize(problem: Problem, seed: str | np.ndarray, config: TrajoptConfig | N
     with ``starts`` listing every start's outcome and ``seed_time_s``, ``solve_time_s`` and ``iterations``
     adding up all of them."""
     config = config or TrajoptConfig()
-    n = config.starts if isinstance(seed, str) and seed in MULTI_START else 1
+    n = config.starts if isinstance(seed, str) and planner_name(seed) in MULTI_START else 1
     starts = []
     for sample in range(n):
-        record = _optimize_start(problem, seed, sample, config, true_terrain, verify_on_drake)
+        record = _optimize_start(problem, seed, sample, config, true_terrain, verify_on_drake, seed_options)
         starts.append(record)
         if record["verified"] or (record["converged"] and not verify_on_drake):
             break
@@ -908,7 +932,8 @@ def _total_cost(solves: list) -> dict:
             "iterations": None if None in iterations else sum(iterations)}
 
 
-def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, true_terrain, verify_on_drake):
+def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, true_terrain, verify_on_drake,
+                    seed_options):
     """One start of ``optimize``. The solver starts from the re-anchored guess (``build_guess``); when that does
     not converge and the seed did not execute as it is, it starts once more from the chained guess
     (``config.retry``). A last attempt that stops unconverged but within ``config.polish_violation`` of feasible
@@ -918,8 +943,11 @@ def _optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, 
               "converged": False, "verified": False, "error": None}
     t0 = time.perf_counter()
     try:
-        footholds, seed_calls = (seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample)
-                                 if isinstance(seed, str) else (np.asarray(seed, dtype=np.float64).reshape(-1), 0))
+        if isinstance(seed, str):
+            footholds, seed_calls = seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample,
+                                                   seed_options)
+        else:
+            footholds, seed_calls = np.asarray(seed, dtype=np.float64).reshape(-1), 0
     except TrajoptError as exc:
         record.update(error=str(exc), seed_time_s=time.perf_counter() - t0)
         return record
@@ -971,17 +999,18 @@ class TrajoptPlanner(Planner):
     Its ``ode_calls`` are the seed planner's step-map calls and the initial guess's (one per hop; none are
     counted when the seed finds no plan); the collocation's own evaluations of the SLIP equations are not
     step-map calls. It does not stop at ``max_time_s``: the seed planner has its own default budget and the
-    solve runs to ``config.major_iterations`` (SNOPT's "Time limit" option had no effect when tried)."""
+    solve runs to ``config.major_iterations`` (SNOPT's "Time limit" option had no effect when tried).
+    ``seed_options``: options for the seed's planner (see ``seed_footholds``)."""
 
-    def __init__(self, seed: str = "step", config: TrajoptConfig | None = None, **budget):
+    def __init__(self, seed: str = "step", config: TrajoptConfig | None = None, seed_options: dict | None = None,
+                 **budget):
         super().__init__(**budget)
-        if seed not in SEEDS:
-            raise ValueError(f"unknown seed {seed!r}; known seeds: {', '.join(SEEDS)}")
-        self.seed = seed
+        check_seed(seed, seed_options)
+        self.seed, self.seed_options = seed, seed_options
         self.config = config or TrajoptConfig()
 
     def _plan(self, problem: Problem) -> Plan:
-        record = optimize(problem, self.seed, self.config, verify_on_drake=False)
+        record = optimize(problem, self.seed, self.config, verify_on_drake=False, seed_options=self.seed_options)
         if record["error"] or not record["converged"]:
             return Plan(self.name, False, problem.target_x, ode_calls=record.get("ode_calls", 0),
                         message=f"no plan found: {record['error'] or record.get('status')}")

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+import planners
 from planners import evaluation
 from planners.suite import load_suite, make_suite, save_suite
 
@@ -149,7 +150,7 @@ def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     results = evaluation.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
                                   config=evaluation.EvalConfig(backend="fast"))
     assert set(results["planners"]) == {"heuristic", "heuristic@noshift"}
-    assert evaluation.planner_name("heuristic@noshift") == "heuristic"
+    assert planners.planner_name("heuristic@noshift") == "heuristic"
     suite = load_suite(suite_path)
     keys = {evaluation.fingerprint(suite, label, opts, evaluation.EvalConfig(), None) for label, opts in specs.items()}
     assert len(keys) == 2

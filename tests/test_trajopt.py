@@ -1,5 +1,6 @@
 """The multi-hop trajectory optimization (planners/trajopt.py): its equations agree with the simulators, it
 converges and verifies on flat ground, and bad seeds are rejected clearly."""
+import json
 import math
 
 import numpy as np
@@ -10,6 +11,7 @@ from drakeslip import dynamics as dyn
 from drakeslip.terrain import DITCH_HEIGHT
 from planners import generic_slip as G
 from planners import trajopt as T
+from planners.lstm_planner import load_model
 
 PARAMS = SlipParams()
 APEX = (0.0, 1.0, 2.0)
@@ -145,6 +147,28 @@ def test_unknown_seed_errors_clearly(flat_problem):
         T.TrajoptPlanner(seed="astar")
 
 
+def test_a_seed_variant_plans_with_its_options(flat_problem):
+    """NAME@VARIANT is the named seed's planner built with the given options; options it does not take, a
+    missing weights file and options for the cold gait are errors naming the seed."""
+    from planners.lstm_planner import EXPERT_WEIGHTS
+
+    options = {"weights": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
+    planner = T._seed_planner("lstm-guided@expert", T.TrajoptConfig.max_hops, None, 0,
+                              json.dumps(options, sort_keys=True))
+    assert planner.lazy and planner.conditioning == "apex"
+    assert planner.net.model.config == load_model(EXPERT_WEIGHTS).config != load_model().config
+    footholds, calls = T.seed_footholds("lstm-guided@expert", flat_problem, options=options)
+    assert calls > 0 and np.all(np.diff(footholds) > 0) and footholds[-1] >= flat_problem.target_x
+    with pytest.raises(ValueError, match="options for the lstm-guided@x seed: .*'bogus'"):
+        T.check_seed("lstm-guided@x", {"bogus": 1})
+    with pytest.raises(ValueError, match="options for the lstm@x seed: .*nope.pt"):
+        T.check_seed("lstm@x", {"weights": "nope.pt"})
+    with pytest.raises(ValueError, match="the cold@x seed is a fixed gait and takes no options"):
+        T.check_seed("cold@x", {"extra_hops": 1})
+    with pytest.raises(ValueError, match="unknown seed 'astar@x'"):
+        T.TrajoptPlanner(seed="astar@x")
+
+
 def test_segments_and_cold_seed_cover_the_problem(flat_problem):
     terrain = Terrain(np.r_[np.zeros(40), np.full(10, 0.2), np.zeros(180)])
     segs = T.segments(terrain)
@@ -170,7 +194,7 @@ def test_a_start_that_is_not_verified_is_followed_by_the_next(flat_problem, monk
     its costs add up every start, and a seed with one start is not repeated."""
     calls = []
 
-    def fake_start(problem, seed, sample, config, true_terrain, verify_on_drake):
+    def fake_start(problem, seed, sample, config, true_terrain, verify_on_drake, seed_options):
         calls.append((seed, sample))
         ok = sample == 1
         return {"seed": seed, "converged": ok, "verified": ok, "error": None, "status": f"start {sample}",
@@ -185,6 +209,9 @@ def test_a_start_that_is_not_verified_is_followed_by_the_next(flat_problem, monk
     calls.clear()
     record = T.optimize(flat_problem, "step", T.TrajoptConfig(starts=3))
     assert calls == [("step", 0)] and "starts" not in record
+    calls.clear()  # a variant of a seed with several starts has them too
+    T.optimize(flat_problem, "lstm-guided@lazy", T.TrajoptConfig(starts=3), seed_options={"lazy": True})
+    assert calls == [("lstm-guided@lazy", 0), ("lstm-guided@lazy", 1)]
 
 
 def test_an_unconverged_point_near_feasible_is_polished_to_convergence(flat_problem):
