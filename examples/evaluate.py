@@ -20,12 +20,12 @@ a spread-out sample of the cases:
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import sys
 from pathlib import Path
 
 from planners import available, planner_name
+from planners.registry import label_options
 from planners.evaluation import EvalConfig, evaluate, make_planners, ratios, table, write_json
 from planners.suite import load_suite
 
@@ -65,11 +65,9 @@ def main(argv=None):
     if args.baseline is not None and args.baseline not in names:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {names}")
     try:
-        options = json.loads(args.options)
-    except json.JSONDecodeError as error:
-        ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
-    if not isinstance(options, dict) or any(k not in names or not isinstance(v, dict) for k, v in options.items()):
-        ap.error(f"--options must map planner labels among {names} to option objects, got {args.options!r}")
+        options = label_options(args.options, names)
+    except ValueError as error:
+        ap.error(str(error))
     try:  # a bad option is refused here, by label, not in a worker's traceback
         make_planners(options)
     except ValueError as error:

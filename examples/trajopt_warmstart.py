@@ -39,6 +39,7 @@ from pathlib import Path
 from drakeslip import SlipParams
 from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
 from planners.evaluation import perceived
+from planners.registry import label_options
 from planners.suite import load_suite
 from planners.trajopt import SEEDS, TrajoptConfig, check_seed, make_problem, optimize
 
@@ -128,22 +129,14 @@ def main(argv=None):
     seeds = [s for s in args.seeds.split(",") if s]
     if not seeds:
         ap.error(f"--seeds names no seed; known seeds: {', '.join(SEEDS)}")
-    try:
-        options = json.loads(args.options)
-    except json.JSONDecodeError as error:
-        ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
-    if not isinstance(options, dict) or any(k not in seeds or not isinstance(v, dict) for k, v in options.items()):
-        ap.error(f"--options must map seed labels among {seeds} to option objects, got {args.options!r}")
-    for seed in seeds:
-        try:
-            check_seed(seed, options.get(seed))
-        except ValueError as error:
-            ap.error(str(error))
     if args.every < 1 or (args.cases is not None and args.cases < 1):
         ap.error("--every and --cases must be positive")
     try:
         config = TrajoptConfig(knots=args.knots, collocation=args.collocation, max_hops=args.max_hops,
                                solver=args.solver, lstm_weights=args.lstm_weights, starts=args.starts)
+        options = label_options(args.options, seeds, kind="seed")
+        for seed in seeds:
+            check_seed(seed, options.get(seed), config)
     except ValueError as exc:
         ap.error(str(exc))
     suite = load_suite(args.suite)

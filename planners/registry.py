@@ -21,6 +21,19 @@ def planner_name(label: str) -> str:
     return label.split("@", 1)[0]
 
 
+def label_options(text: str, labels: list, kind: str = "planner") -> dict:
+    """``--options`` JSON: an object mapping some of ``labels`` to option objects; a ValueError otherwise."""
+    import json
+
+    try:
+        options = json.loads(text)
+    except json.JSONDecodeError as error:
+        raise ValueError(f"--options is not valid JSON ({error}): {text!r}") from None
+    if not isinstance(options, dict) or any(k not in labels or not isinstance(v, dict) for k, v in options.items()):
+        raise ValueError(f"--options must map {kind} labels among {labels} to option objects, got {text!r}")
+    return options
+
+
 def available() -> list[str]:
     return sorted(_PLANNERS)
 

@@ -297,17 +297,24 @@ def _controller():
     return StepLengthController.load_default()
 
 
-def check_seed(seed: str, options: dict | None = None) -> None:
-    """A ValueError unless ``seed`` is a seed name, or ``NAME@VARIANT`` of one, and ``options`` (for the seed's
-    planner) build it; ``cold`` takes no options."""
+def _check_seed_name(seed: str, options: dict | None) -> str:
+    """The seed's name; a ValueError for an unknown one, or for options given to the cold gait."""
     name = planner_name(seed)
     if name not in SEEDS:
         raise ValueError(f"unknown seed {seed!r}; known seeds: {', '.join(SEEDS)} (each optionally NAME@VARIANT)")
-    if name == "cold":
-        if options:
-            raise ValueError(f"the {seed} seed is a fixed gait and takes no options, got {options!r}")
-        return
-    _seed_planner(seed, TrajoptConfig.max_hops, None, 0, json.dumps(options or {}, sort_keys=True))
+    if name == "cold" and options:
+        raise ValueError(f"the {seed} seed is a fixed gait and takes no options, got {options!r}")
+    return name
+
+
+def check_seed(seed: str, options: dict | None = None, config: TrajoptConfig | None = None) -> None:
+    """A ValueError unless ``seed`` is a seed name, or ``NAME@VARIANT`` of one, and ``options`` (for the seed's
+    planner) build it with ``config``'s max_hops and lstm_weights (the planner is kept for the first start);
+    ``cold`` takes no options."""
+    config = config or TrajoptConfig()
+    if _check_seed_name(seed, options) != "cold":
+        _seed_planner(seed, config.max_hops, str(config.lstm_weights) if config.lstm_weights else None, 0,
+                      json.dumps(options or {}, sort_keys=True))
 
 
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
@@ -320,11 +327,11 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
     ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model) unless ``options``
     name one. ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops,
     the LSTM-guided search with sampling seed ``sample``)."""
-    check_seed(name, options)
-    if sample and planner_name(name) not in MULTI_START:
+    kind = _check_seed_name(name, options)
+    if sample and kind not in MULTI_START:
         raise ValueError(f"the {name} seed has one start; sample {sample!r} asked for another")
     ode_calls = 0
-    if planner_name(name) == "cold":
+    if kind == "cold":
         footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
         weights = str(lstm_weights) if lstm_weights else None
@@ -1005,9 +1012,9 @@ class TrajoptPlanner(Planner):
     def __init__(self, seed: str = "step", config: TrajoptConfig | None = None, seed_options: dict | None = None,
                  **budget):
         super().__init__(**budget)
-        check_seed(seed, seed_options)
-        self.seed, self.seed_options = seed, seed_options
         self.config = config or TrajoptConfig()
+        check_seed(seed, seed_options, self.config)
+        self.seed, self.seed_options = seed, seed_options
 
     def _plan(self, problem: Problem) -> Plan:
         record = optimize(problem, self.seed, self.config, verify_on_drake=False, seed_options=self.seed_options)
