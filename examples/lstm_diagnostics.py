@@ -1,5 +1,5 @@
-"""How good is the footstep model as a guide for planning? Three diagnostics (docs/results.md, "The learned
-planners on fresh suites"):
+"""How good is the footstep model as a guide for planning? Four diagnostics (docs/results.md, "The learned
+planners on fresh suites" and "DAgger"):
 
     python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 --weights planners/weights/lstm.pt
 
@@ -11,6 +11,10 @@ planners on fresh suites"):
 3. Greedy oracle, a diagnostic and not a planner: at every step take the most probable foothold that really
    works from the true apex (checked on the fast step map), in the receding-horizon protocol on the fast
    backend. Its success rate bounds any planner that follows the model's mode without lookahead.
+4. Expert's path (``--diagnostics 4``, slow: the expert searches from every candidate): along the goal-reaching
+   expert's rollout from each start (planners/expert.py), how often the one-step mode planner's foothold is
+   goal-reaching, how wide the goal-reaching sets are, and in how many cases it is goal-reaching at every state.
+   A mode planner must be right at each of a case's hops, so this per-hop rate is what its success compounds.
 """
 from __future__ import annotations
 
@@ -27,6 +31,7 @@ from drakeslip import ApexState, SlipParams  # noqa: E402
 from planners import make  # noqa: E402
 from planners.base import FootstepSequence, Plan  # noqa: E402
 from planners.evaluation import EvalConfig, perceived, run_case  # noqa: E402
+from planners.expert import GoalReachingExpert  # noqa: E402
 from planners.lstm_guided import LSTMGuidedPlanner, PathConditionedSampler  # noqa: E402
 from planners.lstm_inference import softmax  # noqa: E402
 from planners.lstm_inputs import encode_window  # noqa: E402
@@ -103,40 +108,73 @@ def first_step(cases, goal_x, params, weights):
     return float(np.mean(shares)), float(np.mean(modes))
 
 
+def search(cases, goal_x, params, weights):
+    """Diagnostic 2, printed per planner."""
+    print("2. search: share of simulated candidates that work (one plan from each start)")
+    counted = {"Step-space": type("CountingStep", (Counting, StepSpacePlanner), {})(),
+               "LSTM-guided, lazy, path": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
+                   weights=weights, lazy=True),
+               "LSTM-guided, lazy, apex": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
+                   weights=weights, lazy=True, conditioning="apex")}
+    for label, planner in counted.items():
+        for case in cases:
+            planner.plan(case.apex, perceived(case.terrain, case.apex.x), goal_x, params)
+        print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
+
+
+def expert_path(cases, goal_x, params, planner, expert=None):
+    """(share of the expert's states where ``planner``'s first foothold is goal-reaching, median goal-reaching
+    set width in candidates, share of cases where it is goal-reaching at every state, states)."""
+    expert = expert or GoalReachingExpert()
+    hits, widths, whole = [], [], []
+    for case in cases:
+        mine = []
+        for apex, label, _ in expert.rollout(case.apex, case.terrain, goal_x, params, np.random.default_rng(0)):
+            if label.choice >= 0:
+                plan = planner.plan(apex, perceived(case.terrain, apex.x), goal_x, params)
+                mine.append(plan.success and expert.goal_reaching(label, plan.footholds[0]))
+                widths.append(int(label.reaching.sum()))
+        hits += mine
+        whole.append(bool(mine) and all(mine))  # a start the expert has no way on from counts as missed
+    return float(np.mean(hits)), float(np.median(widths)), float(np.mean(whole)), len(hits)
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
     ap.add_argument("--weights", default=None, help="footstep model (default: the committed Table I model)")
     ap.add_argument("--every", type=int, default=3, help="take every K-th case")
+    ap.add_argument("--diagnostics", default="1,2,3", help="which diagnostics to run, comma-separated (1-4)")
     args = ap.parse_args(argv)
     if args.every < 1:
         ap.error(f"--every must be at least 1, got {args.every}")
+    chosen = set(args.diagnostics.split(","))
+    if not chosen <= {"1", "2", "3", "4"}:
+        ap.error(f"--diagnostics takes numbers 1-4, got {args.diagnostics!r}")
     suite = load_suite(args.suite)
     cases = suite.cases[::args.every]
     params = SlipParams(friction=suite.friction)
     print(f"{suite.name}: {len(cases)} cases, model {args.weights or 'planners/weights/lstm.pt'}")
 
-    share, mode = first_step(cases, suite.goal_x, params, args.weights)
-    print(f"1. first step: {100 * share:.1f} % of the admissible probability on working footholds; "
-          f"the mode works from {100 * mode:.1f} % of the starts")
-
-    print("2. search: share of simulated candidates that work (one plan from each start)")
-    counted = {"Step-space": type("CountingStep", (Counting, StepSpacePlanner), {})(),
-               "LSTM-guided, lazy, path": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
-                   weights=args.weights, lazy=True),
-               "LSTM-guided, lazy, apex": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
-                   weights=args.weights, lazy=True, conditioning="apex")}
-    for label, planner in counted.items():
-        for case in cases:
-            planner.plan(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params)
-        print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
-
-    oracle = GreedyOracle(weights=args.weights)
-    results = [run_case(oracle, oracle.controller, case, suite.goal_x, params, EvalConfig(backend="fast"))
-               for case in cases]
-    failures = Counter(r["failure"] for r in results if not r["success"])
-    print(f"3. greedy oracle: {100 * np.mean([r['success'] for r in results]):.1f} % reach the goal; "
-          f"failures {dict(failures)}")
+    if "1" in chosen:
+        share, mode = first_step(cases, suite.goal_x, params, args.weights)
+        print(f"1. first step: {100 * share:.1f} % of the admissible probability on working footholds; "
+              f"the mode works from {100 * mode:.1f} % of the starts")
+    if "2" in chosen:
+        search(cases, suite.goal_x, params, args.weights)
+    if "3" in chosen:
+        oracle = GreedyOracle(weights=args.weights)
+        results = [run_case(oracle, oracle.controller, case, suite.goal_x, params, EvalConfig(backend="fast"))
+                   for case in cases]
+        failures = Counter(r["failure"] for r in results if not r["success"])
+        print(f"3. greedy oracle: {100 * np.mean([r['success'] for r in results]):.1f} % reach the goal; "
+              f"failures {dict(failures)}")
+    if "4" in chosen:
+        mode = make("lstm", weights=args.weights, max_steps=1)
+        hit, width, whole, n = expert_path(cases, suite.goal_x, params, mode)
+        print(f"4. expert's path: the one-step mode planner's foothold is goal-reaching in {100 * hit:.1f} % of "
+              f"{n} states (goal-reaching sets: median {width:g} candidates of 2.5 cm); at every state of "
+              f"{100 * whole:.1f} % of the cases")
 
 
 if __name__ == "__main__":

@@ -98,3 +98,33 @@ def test_dagger_rollout_follows_the_policy_only_where_it_reaches_the_goal():
     behind = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0), policy=_Policy(-3.0))
     assert [x for *_, x in behind] == [x for *_, x in own]
     assert all(x == label.foothold for _, label, x in own if label.choice >= 0)
+
+
+class _ExpertPolicy(_Policy):
+    """Proposes the expert's own choice."""
+
+    def __init__(self, expert):
+        self.expert = expert
+
+    def plan(self, apex, terrain, goal_x, params):
+        self.offset = self.expert.label(apex, terrain, goal_x, params).foothold - apex.x
+        return super().plan(apex, terrain, goal_x, params)
+
+
+def test_the_expert_path_diagnostic_scores_each_state():
+    """examples/lstm_diagnostics.py --diagnostics 4: a planner that proposes the expert's choice is goal-reaching
+    at every state of the expert's path; one that steps behind the body never is."""
+    import importlib.util
+    from pathlib import Path
+
+    from planners.suite import Case
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "lstm_diagnostics.py"
+    spec = importlib.util.spec_from_file_location("lstm_diagnostics", path)
+    diagnostics = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(diagnostics)
+    expert, params = GoalReachingExpert(), ds.SlipParams(friction=0.8)
+    cases = [Case("short", ds.ditch_world(1003), ds.ApexState(-1.0, 0.8, 1.5))]
+    hit, width, whole, n = diagnostics.expert_path(cases, 2.0, params, _ExpertPolicy(expert), expert)
+    assert (hit, whole) == (1.0, 1.0) and n >= 2 and width >= 1
+    assert diagnostics.expert_path(cases, 2.0, params, _Policy(-3.0), expert)[::2] == (0.0, 0.0)
