@@ -111,18 +111,12 @@ class _ExpertPolicy(_Policy):
         return super().plan(apex, terrain, goal_x, params)
 
 
-def test_the_expert_path_diagnostic_scores_each_state():
+def test_the_expert_path_diagnostic_scores_each_state(example):
     """examples/lstm_diagnostics.py --diagnostics 4: a planner that proposes the expert's choice is goal-reaching
     at every state of the expert's path; one that steps behind the body never is."""
-    import importlib.util
-    from pathlib import Path
-
     from planners.suite import Case
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "lstm_diagnostics.py"
-    spec = importlib.util.spec_from_file_location("lstm_diagnostics", path)
-    diagnostics = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(diagnostics)
+    diagnostics = example("lstm_diagnostics")
     expert, params = GoalReachingExpert(), ds.SlipParams(friction=0.8)
     cases = [Case("short", ds.ditch_world(1003), ds.ApexState(-1.0, 0.8, 1.5))]
     hit, width, whole, n = diagnostics.expert_path(cases, 2.0, params, _ExpertPolicy(expert), expert)

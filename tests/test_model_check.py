@@ -1,5 +1,4 @@
 """The model-checking oracle on tiny terrains with known answers, its Drake witnesses, budgets and the CLI."""
-import importlib.util
 import json
 import os
 import re
@@ -131,13 +130,6 @@ def test_cli_writes_the_results_format_and_resumes(tmp_path, monkeypatch):
     assert again["cases"] == results["cases"]
 
 
-def _cli():
-    spec = importlib.util.spec_from_file_location("model_check_cli", ROOT / "examples" / "model_check.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module.main
-
-
 @pytest.mark.parametrize("args, message", [
     (["--budget", "0"], "max_nodes must be a positive integer, got 0"),
     (["--seconds", "nan"], "max_time_s must be a positive number of seconds, got nan"),
@@ -145,7 +137,7 @@ def _cli():
     (["--cases", "-3"], "number of cases must be a positive integer, got -3"),
     (["--suite-edit"], r"cases\[0\]\.apex.*'z'"),
 ])
-def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message):
+def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message, example):
     doc = make_suite("ditch", 7, 1, speeds=(2.0,), heights=(0.9,)).to_dict()
     if args == ["--suite-edit"]:
         doc["cases"][0]["apex"].pop("z")
@@ -153,7 +145,7 @@ def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message):
     suite_path = tmp_path / "suite.json"
     suite_path.write_text(json.dumps(doc))
     with pytest.raises(SystemExit) as stop:
-        _cli()(["--suite", str(suite_path), "--out", str(tmp_path / "o.json"), *args])
+        example("model_check").main(["--suite", str(suite_path), "--out", str(tmp_path / "o.json"), *args])
     assert stop.value.code != 0
     assert re.search(message, capsys.readouterr().err)
     assert not (tmp_path / "o.json").exists()

@@ -1,6 +1,5 @@
 """Plan files (planners.plan_io) and plan checking on Drake (verification.plan_check): a certificate with
 positive margins for a plan that works, the right counterexample for plans known to fail."""
-import importlib.util
 import json
 from pathlib import Path
 
@@ -20,13 +19,6 @@ from verification.plan_check import Certificate, Counterexample, check_plan
 ROOT = Path(__file__).resolve().parents[1]
 PARAMS = ds.SlipParams()
 START = ds.ApexState(0.0, 0.8, 1.5)
-
-
-def example(name):
-    spec = importlib.util.spec_from_file_location(name, ROOT / "examples" / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
 
 
 @pytest.fixture(scope="module")
@@ -150,7 +142,7 @@ def test_malformed_plan_file_names_the_file_and_field(tmp_path, step_record, edi
         load_plan(path)
 
 
-def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, capsys):
+def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, capsys, example):
     suite = tmp_path / "suite.json"
     save_suite(make_suite("step", seed=2000, n_terrains=1), suite)
     plan = tmp_path / "plan.json"
@@ -178,7 +170,7 @@ def test_every_registered_planner_is_known_after_import_planners():
     assert out.split(",") == ["angle", "heuristic", "lstm", "lstm-guided", "step", "trajopt"]
 
 
-def test_cli_make_plan_with_trajopt_options_is_certified(tmp_path, capsys):
+def test_cli_make_plan_with_trajopt_options_is_certified(tmp_path, capsys, example):
     suite = tmp_path / "suite.json"
     save_suite(make_suite("step", seed=2000, n_terrains=1), suite)
     make = example("make_plan").main

@@ -1,8 +1,5 @@
 """Monte Carlo robustness of a plan (verification.robustness): deterministic under a seed, certain without
 noise for a certified plan, falling with large noise, and confirmed on Drake for the same draws."""
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 import pytest
 
@@ -14,7 +11,6 @@ from planners.plan_io import PlanRecord
 from planners.suite import make_suite
 from verification.robustness import confirm_on_drake, success_probability, wilson_interval
 
-ROOT = Path(__file__).resolve().parents[1]
 NOISY = dict(apex_noise=(0.01, 0.01, 0.05), angle_noise=0.02)
 
 
@@ -84,10 +80,8 @@ def test_bad_arguments_are_named(record, call, message):
         call(record)
 
 
-def test_cli(tmp_path, record, capsys):
-    spec = importlib.util.spec_from_file_location("robustness_cli", ROOT / "examples" / "robustness.py")
-    cli = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(cli)
+def test_cli(tmp_path, record, capsys, example):
+    cli = example("robustness")
     record.save(tmp_path / "plan.json")
     assert cli.main(["--plan", str(tmp_path / "plan.json"), "--samples", "50", "--seed", "1",
                      "--apex-noise", "0,0,0", "--angle-noise", "0"]) == 0
