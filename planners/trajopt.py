@@ -271,8 +271,14 @@ def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     return first + (last - first) * np.arange(n) / max(n - 1, 1)
 
 
+def _seed_planner(label: str, options: dict | None, max_hops: int, lstm_weights, sample: int):
+    """The seed's planner, built once per distinct arguments (so the one check_seed builds is the first start's)."""
+    return _built_seed_planner(label, max_hops, str(lstm_weights) if lstm_weights else None, sample,
+                               json.dumps(options or {}, sort_keys=True))
+
+
 @functools.cache
-def _seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
+def _built_seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
     import planners
 
     name, options = planner_name(label), json.loads(options_json)
@@ -313,8 +319,7 @@ def check_seed(seed: str, options: dict | None = None, config: TrajoptConfig | N
     ``cold`` takes no options."""
     config = config or TrajoptConfig()
     if _check_seed_name(seed, options) != "cold":
-        _seed_planner(seed, config.max_hops, str(config.lstm_weights) if config.lstm_weights else None, 0,
-                      json.dumps(options or {}, sort_keys=True))
+        _seed_planner(seed, options, config.max_hops, config.lstm_weights, 0)
 
 
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
@@ -334,8 +339,7 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
     if kind == "cold":
         footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
-        weights = str(lstm_weights) if lstm_weights else None
-        planner = _seed_planner(name, max_hops, weights, sample, json.dumps(options or {}, sort_keys=True))
+        planner = _seed_planner(name, options, max_hops, lstm_weights, sample)
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")

@@ -1,6 +1,5 @@
 """The multi-hop trajectory optimization (planners/trajopt.py): its equations agree with the simulators, it
 converges and verifies on flat ground, and bad seeds are rejected clearly."""
-import json
 import math
 
 import numpy as np
@@ -153,8 +152,7 @@ def test_a_seed_variant_plans_with_its_options(flat_problem):
     from planners.lstm_planner import EXPERT_WEIGHTS
 
     options = {"weights": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
-    planner = T._seed_planner("lstm-guided@expert", T.TrajoptConfig.max_hops, None, 0,
-                              json.dumps(options, sort_keys=True))
+    planner = T._seed_planner("lstm-guided@expert", options, T.TrajoptConfig.max_hops, None, 0)
     assert planner.lazy and planner.conditioning == "apex"
     assert planner.net.model.config == load_model(EXPERT_WEIGHTS).config != load_model().config
     footholds, calls = T.seed_footholds("lstm-guided@expert", flat_problem, options=options)
