@@ -6,6 +6,10 @@
     python3 examples/generate_dataset.py --planner expert --policy out/lstm_expert_round0.pt --explore 0.1 \
         --subcells 4 --min-steps 1 --start-x -1 --heights 0.55,1.1 --speeds 0.4,3.2 --friction 0.8 \
         --terrains 500 --seed 1 --out data/dagger1 --jobs 2     # a DAgger round (docs/results.md, "DAgger")
+    python3 examples/generate_dataset.py --planner expert --look-ahead --families ditch \
+        --policy planners/weights/lstm_expert.pt --explore 0.1 --subcells 4 --min-steps 1 --start-x -1 \
+        --heights 0.55,1.1 --speeds 0.4,3.2 --friction 0.8 --terrains 250 --seed 3 --out data/lookahead1 --jobs 2
+                                              # ditch states labelled by the look-ahead expert (docs/results.md)
     python3 examples/generate_dataset.py --out data/footsteps --executor ray [--ray-address auto]
 
 Shards are written atomically; rerunning the same command resumes and only generates the missing shards.
@@ -59,6 +63,11 @@ def main(argv=None):
     ap.add_argument("--policy", default="",
                     help="--planner expert: footstep model weights whose one-step mode planner the rollouts "
                          "follow while it stays goal-reaching (DAgger)")
+    ap.add_argument("--look-ahead", action="store_true",
+                    help="--planner expert: label each state with the foothold that leaves the most room a hop "
+                         "later (GoalReachingExpert(look_ahead=True))")
+    ap.add_argument("--families", default=",".join(DatasetConfig.families),
+                    help="terrain families, alternating over the terrains, comma-separated")
     ap.add_argument("--subcells", type=int, default=DatasetConfig.subcells,
                     help="output bins per 10 cm cell (1: the paper's); with --planner step, its foothold grid")
     ap.add_argument("--min-steps", type=int, default=DatasetConfig.min_steps, help="shortest sequence kept")
@@ -82,7 +91,8 @@ def main(argv=None):
                             height_range=pair(args.heights, "heights"), speed_range=pair(args.speeds, "speeds"),
                             n_terrains=args.terrains, apexes_per_terrain=args.apexes, branching=args.branching,
                             friction=args.friction, seed=args.seed, instances_per_shard=args.shard_size,
-                            subcells=args.subcells, explore=args.explore, policy=args.policy)
+                            subcells=args.subcells, explore=args.explore, policy=args.policy,
+                            expert_look_ahead=args.look_ahead, families=tuple(args.families.split(",")))
     except ValueError as error:
         ap.error(str(error))
     write_manifest(cfg, args.out)

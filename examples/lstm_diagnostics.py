@@ -15,6 +15,7 @@ planners on fresh suites" and "DAgger"):
    expert's rollout from each start (planners/expert.py), how often the one-step mode planner's foothold is
    goal-reaching, how wide the goal-reaching sets are, and in how many cases it is goal-reaching at every state.
    A mode planner must be right at each of a case's hops, so this per-hop rate is what its success compounds.
+   With ``--look-ahead`` the path is the look-ahead expert's (the foothold leaving the most room a hop later).
 """
 from __future__ import annotations
 
@@ -145,6 +146,8 @@ def main(argv=None):
     ap.add_argument("--weights", default=None, help="footstep model (default: the committed Table I model)")
     ap.add_argument("--every", type=int, default=3, help="take every K-th case")
     ap.add_argument("--diagnostics", default="1,2,3", help="which diagnostics to run, comma-separated (1-4)")
+    ap.add_argument("--look-ahead", action="store_true",
+                    help="diagnostic 4 follows the look-ahead expert (GoalReachingExpert(look_ahead=True))")
     args = ap.parse_args(argv)
     if args.every < 1:
         ap.error(f"--every must be at least 1, got {args.every}")
@@ -171,7 +174,8 @@ def main(argv=None):
               f"failures {dict(failures)}")
     if "4" in chosen:
         mode = make("lstm", weights=args.weights, max_steps=1)
-        hit, width, whole, n = expert_path(cases, suite.goal_x, params, mode)
+        expert = GoalReachingExpert(look_ahead=args.look_ahead)
+        hit, width, whole, n = expert_path(cases, suite.goal_x, params, mode, expert)
         print(f"4. expert's path: the one-step mode planner's foothold is goal-reaching in {100 * hit:.1f} % of "
               f"{n} states (goal-reaching sets: median {width:g} candidates of 2.5 cm); at every state of "
               f"{100 * whole:.1f} % of the cases")

@@ -61,6 +61,7 @@ class DatasetConfig:
     seed: int = 0
     explore: float = 0.3                # "expert": chance a rollout hops to a random goal-reaching foothold
     expert_max_nodes: int = 300         # "expert": node budget of its searches (GoalReachingExpert)
+    expert_look_ahead: bool = False     # "expert": label with the foothold that leaves the most room a hop later
     policy: str = ""                    # "expert": weights of a footstep model whose one-step mode planner the
                                         # rollouts follow where it stays goal-reaching (DAgger; expert.py)
 
@@ -69,6 +70,8 @@ class DatasetConfig:
             raise ValueError(f"DatasetConfig.planner must be 'angle', 'step' or 'expert', got {self.planner!r}")
         if self.policy and self.planner != "expert":
             raise ValueError(f"DatasetConfig.policy is for planner='expert', not {self.planner!r}")
+        if self.expert_look_ahead and self.planner != "expert":
+            raise ValueError(f"DatasetConfig.expert_look_ahead is for planner='expert', not {self.planner!r}")
         if self.policy and not os.path.isfile(self.policy):
             raise ValueError(f"DatasetConfig.policy: no weights file {self.policy!r}")
         if not 0.0 <= self.explore <= 1.0:
@@ -189,7 +192,8 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     sequence's last). A step's viable set is its state's goal-reaching candidates."""
     family, terrain, apex = instance(cfg, i)
     params = SlipParams(friction=cfg.friction)
-    expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells, max_nodes=cfg.expert_max_nodes)
+    expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells, max_nodes=cfg.expert_max_nodes,
+                                look_ahead=cfg.expert_look_ahead)
     policy = LSTMPlanner(weights=cfg.policy, max_steps=1, controller=expert.controller) if cfg.policy else None
     states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore,
                             policy=policy)

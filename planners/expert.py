@@ -10,7 +10,12 @@ keeps the most room for error on the way to the goal instead:
 - a candidate is *goal-reaching* when its hop works and Step-space finds a plan from the apex it reaches to
   the target (the goal, or the end of what the robot sees);
 - the label is the goal-reaching candidate deepest inside its run of goal-reaching neighbours (ties: the
-  farthest), so a foothold missed by a few centimetres still leaves a way on.
+  farthest), so a foothold missed by a few centimetres still leaves a way on;
+- with ``look_ahead``, the label is instead, of the candidates at least ``LOOK_AHEAD_MARGIN`` deep inside
+  their run, the one whose next state has the most room (the deepest run of goal-reaching candidates one hop
+  later, as seen from here): a learner that misses by a bin or two is then in states where the band it must
+  hit is wide. On ditch terrain, where misses a bin outside narrow bands are what fail the mode planner, it
+  steers the rollouts into states with wider bands (docs/results.md, "A look-ahead expert").
 
 A model trained on the expert's own rollouts sees only the states the expert visits; ``rollout(policy=...)``
 follows a trained planner instead (DAgger), so the next round of data holds the states the model gets itself
@@ -27,6 +32,8 @@ from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import StepLengthController
 
 from .step_space import StepSpacePlanner
+
+LOOK_AHEAD_MARGIN = 2  # least run depth of a look-ahead label: a goal-reaching neighbour on either side
 
 
 @dataclass
@@ -63,13 +70,30 @@ class GoalReachingExpert:
     the same labels on any machine; ``max_time_s`` is only a safety net."""
 
     def __init__(self, spacing: float = 0.025, controller: StepLengthController | None = None,
-                 max_nodes: int = 300, max_time_s: float = 600.0):
+                 max_nodes: int = 300, max_time_s: float = 600.0, look_ahead: bool = False):
         self.spacing = float(spacing)
+        self.look_ahead = bool(look_ahead)
         self.controller = controller or StepLengthController.load_default()
         self.grid = StepSpacePlanner(controller=self.controller, spacing=self.spacing, fallback_spacing=())
         self.search = StepSpacePlanner(controller=self.controller, max_nodes=max_nodes, max_time_s=max_time_s)
 
     def label(self, apex, terrain: Terrain, goal_x: float, params: SlipParams) -> ExpertLabel:
+        label, apexes, target_x = self._candidates(apex, terrain, goal_x, params)
+        if label.choice < 0 or not self.look_ahead:
+            return label
+        depth, room = run_depth(label.reaching), {}
+        for i in np.flatnonzero(depth >= min(LOOK_AHEAD_MARGIN, depth.max())):
+            if label.x_l[i] >= target_x:  # past the target: nothing left to keep room for
+                room[i] = np.inf
+                continue
+            after = self._candidates(apexes[i], terrain, goal_x, params)[0]
+            label.ode_calls += after.ode_calls
+            room[i] = run_depth(after.reaching).max(initial=0)
+        label.choice = int(max(room, key=lambda i: (room[i], depth[i], i)))
+        return label
+
+    def _candidates(self, apex, terrain: Terrain, goal_x: float, params: SlipParams):
+        """The plain label (no look-ahead), each candidate's next apex and the target x."""
         problem = self.grid.problem(apex, terrain, goal_x, params, time.perf_counter())
         x_l = self.grid.candidates(problem.apex, terrain, params, self.spacing, until=problem.window_end)
         theta = self.grid.aim(problem.apex, x_l, terrain, params)
@@ -81,9 +105,9 @@ class GoalReachingExpert:
             calls += result.ode_calls
             reaching[i] = bool(result.tree.goals)
         if not reaching.any():
-            return ExpertLabel(x_l, reaching, -1, calls)
+            return ExpertLabel(x_l, reaching, -1, calls), apexes, problem.target_x
         depth = run_depth(reaching)
-        return ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls)
+        return ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls), apexes, problem.target_x
 
     def goal_reaching(self, label: ExpertLabel, x: float) -> bool:
         """Whether foothold ``x`` is one of ``label``'s goal-reaching candidates."""

@@ -17,7 +17,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from .lstm_inputs import pad_steps
+from .lstm_inputs import DITCH_CELL, pad_steps
 from .lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkpoint
 
 
@@ -42,13 +42,23 @@ class TrainConfig:
 def load_dataset(folder: str, max_sequences: int = 0) -> tuple[dict, int]:
     """Concatenate the shards in ``folder`` (or several, comma-separated) into arrays: terrain (N, n), apex
     (N, 3), s0 (N,), steps (N, T) with -1 padding, as output bins; ``subcells`` is the bins per cell (1 for
-    shards that predate it)."""
+    shards that predate it). A folder written ``FOLDER:ditch`` or ``FOLDER:no-ditch`` keeps only the sequences
+    whose window holds a cell at the encoding's floor (a ditch-world ditch; step-world levels never reach it),
+    or only those without one: e.g. to replace a dataset's ditch labels by another expert's."""
     parts = []
     for one in folder.split(","):
+        one, _, select = one.partition(":")
+        if select not in ("", "ditch", "no-ditch"):
+            raise ValueError(f"dataset selector {select!r} in {folder!r}: use FOLDER, FOLDER:ditch or FOLDER:no-ditch")
         files = sorted(f for f in os.listdir(one) if f.endswith(".npz"))
         if not files:
             raise ValueError(f"no dataset shards (*.npz) in {one}")
-        parts += [np.load(os.path.join(one, f)) for f in files]
+        for f in files:
+            shard = dict(np.load(os.path.join(one, f)))
+            if select:
+                keep = (shard["terrain"] <= DITCH_CELL).any(axis=1) == (select == "ditch")
+                shard.update({k: v[keep] for k, v in shard.items() if k != "subcells"})
+            parts.append(shard)
     t_max = max(p["steps"].shape[1] for p in parts)
     steps = np.concatenate([pad_steps(p["steps"], t_max, -1) for p in parts])
     data = {"terrain": np.concatenate([p["terrain"] for p in parts]).astype(np.float32),

@@ -33,6 +33,28 @@ def test_expert_choice_hops_and_leaves_a_plan_to_the_goal():
     assert plan.success
 
 
+def test_look_ahead_expert_keeps_margin_and_more_room_a_hop_later():
+    """With look_ahead the goal-reaching set is the same, the choice lies at least LOOK_AHEAD_MARGIN deep inside
+    its run, and the state its hop reaches leaves more room than the plain choice's does (from this start the
+    two choices differ)."""
+    from planners.expert import LOOK_AHEAD_MARGIN
+
+    terrain, params = ds.ditch_world(1003), ds.SlipParams(friction=0.8)
+    apex, plain = ds.ApexState(0.0, 0.7, 1.0), GoalReachingExpert()
+    window = perceived(terrain, apex.x)
+    base = plain.label(apex, window, 10.0, params)
+    ahead = GoalReachingExpert(look_ahead=True).label(apex, window, 10.0, params)
+    assert np.array_equal(ahead.reaching, base.reaching) and ahead.ode_calls > base.ode_calls
+    depth = run_depth(ahead.reaching)
+    assert depth[ahead.choice] >= min(LOOK_AHEAD_MARGIN, depth.max())
+
+    def room_after(label):
+        hop = ds.step(apex, plain.controller.leg_angle(apex, label.foothold, window), terrain, params)
+        return run_depth(plain.label(hop.next_apex, window, 10.0, params).reaching).max()
+
+    assert room_after(ahead) > room_after(base) >= 1
+
+
 def test_expert_sequences_follow_the_rollout():
     """Every label is one of its step's goal-reaching bins, sequences move forward, and a seed fixes them."""
     cfg = DatasetConfig(planner="expert", subcells=4, min_steps=1, n_terrains=2, apexes_per_terrain=1,
@@ -50,6 +72,8 @@ def test_expert_sequences_follow_the_rollout():
     assert np.array_equal(again["steps"], steps) and np.array_equal(again["apex"], arrays["apex"])
     with pytest.raises(ValueError, match="explore"):
         DatasetConfig(planner="expert", explore=1.5)
+    with pytest.raises(ValueError, match="expert_look_ahead"):
+        DatasetConfig(planner="step", expert_look_ahead=True)
 
 
 def test_committed_expert_model_plans_one_hop_that_works():

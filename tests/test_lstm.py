@@ -142,6 +142,19 @@ def test_dataset_sequences_are_valid(tiny_dataset):
     assert np.all(firsts >= 20)  # the first foothold is near or ahead of the body, never far behind
 
 
+def test_dataset_selectors_split_ditch_windows_from_the_rest(tiny_dataset):
+    """``FOLDER:ditch`` and ``FOLDER:no-ditch`` partition the sequences (the tiny set has a ditch and a step
+    terrain); an unknown selector names itself."""
+    full = load_dataset(tiny_dataset)[0]
+    ditch, rest = load_dataset(tiny_dataset + ":ditch")[0], load_dataset(tiny_dataset + ":no-ditch")[0]
+    assert ditch["s0"].size > 0 and rest["s0"].size > 0
+    assert ditch["s0"].size + rest["s0"].size == full["s0"].size
+    assert (ditch["terrain"] == -1.0).any(axis=1).all() and not (rest["terrain"] == -1.0).any()
+    assert ditch["steps"].shape[0] == ditch["apex"].shape[0] == ditch["viable"].shape[0]
+    with pytest.raises(ValueError, match="'steps'"):
+        load_dataset(tiny_dataset + ":steps")
+
+
 def test_step_space_sequences_move_forward_and_bad_configs_are_refused():
     from planners.dataset import instance_sequences
 
