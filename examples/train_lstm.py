@@ -24,7 +24,8 @@ from planners.lstm_train import TrainConfig, train  # noqa: E402
 def main(argv=None):
     d = TrainConfig()
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=d.data, help="dataset folder, or several comma-separated")
+    ap.add_argument("--data", default=d.data, help="dataset folder, or several comma-separated; FOLDER:ditch or "
+                    "FOLDER:no-ditch keeps only the sequences whose window holds a ditch, or none")
     ap.add_argument("--init", default=d.init, help="weights to fine-tune instead of training a fresh model")
     ap.add_argument("--out", default=d.out)
     ap.add_argument("--checkpoint", default=d.checkpoint, help="resumable training state ('' to disable)")

@@ -107,7 +107,8 @@ class GoalReachingExpert:
         if not reaching.any():
             return ExpertLabel(x_l, reaching, -1, calls), apexes, problem.target_x
         depth = run_depth(reaching)
-        return ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls), apexes, problem.target_x
+        label = ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls)
+        return label, apexes, problem.target_x
 
     def goal_reaching(self, label: ExpertLabel, x: float) -> bool:
         """Whether foothold ``x`` is one of ``label``'s goal-reaching candidates."""

@@ -10,7 +10,7 @@ import numpy as np
 from drakeslip import ApexState, Terrain
 from drakeslip.terrain import WINDOW_BEHIND
 
-DITCH_CELL = -1.0  # a ditch cell's encoded height: window heights are clipped to [-1, 1] below the reference
+HEIGHT_FLOOR = -1.0  # encoded heights are clipped to [HEIGHT_FLOOR, 1]; a ditch-world ditch (1 m deep) sits on it
 
 
 @dataclass(frozen=True)
@@ -56,6 +56,6 @@ def encode_window(terrain: Terrain, apex: ApexState) -> WindowEncoding:
     s0 = int(round(WINDOW_BEHIND / terrain.cell))  # Terrain.window anchors the body's cell here
     ground = reference_height(heights, s0, terrain.ditch_height)
     offset = min(max((apex.x - terrain.x0) / terrain.cell - math.floor((apex.x - terrain.x0) / terrain.cell), 0.0), 1.0)
-    return WindowEncoding(terrain=np.clip(heights - ground, DITCH_CELL, 1.0).astype(np.float32),
+    return WindowEncoding(terrain=np.clip(heights - ground, HEIGHT_FLOOR, 1.0).astype(np.float32),
                           apex=np.array([apex.z - ground, apex.xdot, offset], dtype=np.float32),
                           s0=s0, x_start=x_start, cell=terrain.cell, ditch=heights <= terrain.ditch_height)

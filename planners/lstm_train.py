@@ -17,7 +17,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from .lstm_inputs import DITCH_CELL, pad_steps
+from .lstm_inputs import HEIGHT_FLOOR, pad_steps
 from .lstm_model import FootstepModel, ModelConfig, load_checkpoint, save_checkpoint
 
 
@@ -56,7 +56,7 @@ def load_dataset(folder: str, max_sequences: int = 0) -> tuple[dict, int]:
         for f in files:
             shard = dict(np.load(os.path.join(one, f)))
             if select:
-                keep = (shard["terrain"] <= DITCH_CELL).any(axis=1) == (select == "ditch")
+                keep = (shard["terrain"] <= HEIGHT_FLOOR).any(axis=1) == (select == "ditch")
                 shard.update({k: v[keep] for k, v in shard.items() if k != "subcells"})
             parts.append(shard)
     t_max = max(p["steps"].shape[1] for p in parts)
