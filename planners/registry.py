@@ -1,6 +1,8 @@
 """Planner registry: ``make(name, **options)`` builds any registered planner by name."""
 from __future__ import annotations
 
+import json
+
 _PLANNERS: dict = {}
 
 
@@ -23,8 +25,6 @@ def planner_name(label: str) -> str:
 
 def label_options(text: str, labels: list, kind: str = "planner") -> dict:
     """``--options`` JSON: an object mapping some of ``labels`` to option objects; a ValueError otherwise."""
-    import json
-
     try:
         options = json.loads(text)
     except json.JSONDecodeError as error:
