@@ -123,6 +123,14 @@ def search(cases, goal_x, params, weights):
         print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
 
 
+def greedy_oracle(cases, goal_x, params, weights):
+    """Diagnostic 3: (share of cases the greedy oracle crosses on the fast backend, its failures by kind)."""
+    oracle = GreedyOracle(weights=weights)
+    results = [run_case(oracle, oracle.controller, case, goal_x, params, EvalConfig(backend="fast")) for case in cases]
+    failures = Counter(r["failure"] for r in results if not r["success"])
+    return float(np.mean([r["success"] for r in results])), dict(failures)
+
+
 def expert_path(cases, goal_x, params, planner, expert=None):
     """(share of the expert's states where ``planner``'s first foothold is goal-reaching, median goal-reaching
     set width in candidates, share of cases where it is goal-reaching at every state, states)."""
@@ -166,12 +174,8 @@ def main(argv=None):
     if "2" in chosen:
         search(cases, suite.goal_x, params, args.weights)
     if "3" in chosen:
-        oracle = GreedyOracle(weights=args.weights)
-        results = [run_case(oracle, oracle.controller, case, suite.goal_x, params, EvalConfig(backend="fast"))
-                   for case in cases]
-        failures = Counter(r["failure"] for r in results if not r["success"])
-        print(f"3. greedy oracle: {100 * np.mean([r['success'] for r in results]):.1f} % reach the goal; "
-              f"failures {dict(failures)}")
+        success, failures = greedy_oracle(cases, suite.goal_x, params, args.weights)
+        print(f"3. greedy oracle: {100 * success:.1f} % reach the goal; failures {failures}")
     if "4" in chosen:
         mode = make("lstm", weights=args.weights, max_steps=1)
         expert = GoalReachingExpert(look_ahead=args.look_ahead)
