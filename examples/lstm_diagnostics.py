@@ -1,4 +1,4 @@
-"""How good is the footstep model as a guide for planning? Four diagnostics (docs/results.md, "The learned
+"""How good is the footstep model as a guide for planning? Five diagnostics (docs/results.md, "The learned
 planners on fresh suites" and "DAgger"):
 
     python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 --weights planners/weights/lstm.pt
@@ -16,6 +16,11 @@ planners on fresh suites" and "DAgger"):
    goal-reaching, how wide the goal-reaching sets are, and in how many cases it is goal-reaching at every state.
    A mode planner must be right at each of a case's hops, so this per-hop rate is what its success compounds.
    With ``--look-ahead`` the path is the look-ahead expert's (the foothold leaving the most room a hop later).
+5. Top-k oracle (``--diagnostics 5 --top-k 1,2,3``, slow like 4): the one-step mode planner in the receding-
+   horizon protocol on the fast backend, except that of its k most probable first footholds it takes the
+   goal-reaching one that leaves the most room a hop later (the look-ahead expert's criterion), and its mode
+   when none is goal-reaching. k = 1 is the mode planner itself. Its success bounds what a learned re-ranker
+   of the model's k best footholds (a value or feasibility head) could add to the mode planner.
 """
 from __future__ import annotations
 
@@ -92,6 +97,40 @@ class GreedyOracle(LSTMPlanner):
                     sequences=[FootstepSequence(f, np.full(f.size, np.nan), np.full((f.size, 3), np.nan))])
 
 
+class TopKOracle(LSTMPlanner):
+    """Diagnostic 5: the one-step mode planner whose pick among its ``k`` most probable first footholds is made by
+    the expert (simulates and searches: a bound, not a planner)."""
+
+    def __init__(self, k: int, expert: GoalReachingExpert | None = None, **options):
+        super().__init__(max_steps=1, **options)
+        self.k = k
+        self.expert = expert or GoalReachingExpert(controller=self.controller)
+
+    def _reachable(self, problem, grid, score, tries: int = 32):
+        score = super()._reachable(problem, grid, score, tries)
+        top = np.argsort(-score)[:self.k]
+        top = top[score[top] > 0]
+        if top.size < 2:
+            return score
+        label, apexes, target_x = self.expert.candidates(problem.apex, problem.terrain, problem.goal_x, problem.params)
+        room = {}
+        for i in top:
+            j = int(np.abs(label.x_l - grid[i]).argmin())
+            if self.expert.goal_reaching(label, grid[i]):
+                room[i] = self.expert.room(label, j, apexes, target_x, problem.terrain, problem.goal_x,
+                                           problem.params)
+        pick = max(room, key=room.get) if room else top[0]  # max keeps the more probable of equal rooms
+        return np.where(np.arange(score.size) == pick, score, 0.0)
+
+
+def top_k_oracle(cases, goal_x, params, weights, k: int):
+    """Diagnostic 5: (share of cases the top-k oracle crosses on the fast backend, its failures by kind)."""
+    oracle = TopKOracle(k, weights=weights)
+    results = [run_case(oracle, oracle.controller, case, goal_x, params, EvalConfig(backend="fast")) for case in cases]
+    failures = Counter(r["failure"] for r in results if not r["success"])
+    return float(np.mean([r["success"] for r in results])), dict(failures)
+
+
 def first_step(cases, goal_x, params, weights):
     """(share of admissible probability on working footholds, share of starts whose mode works)."""
     guided, grid = make("lstm-guided", weights=weights), make("step")
@@ -153,15 +192,22 @@ def main(argv=None):
     ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
     ap.add_argument("--weights", default=None, help="footstep model (default: the committed Table I model)")
     ap.add_argument("--every", type=int, default=3, help="take every K-th case")
-    ap.add_argument("--diagnostics", default="1,2,3", help="which diagnostics to run, comma-separated (1-4)")
+    ap.add_argument("--diagnostics", default="1,2,3", help="which diagnostics to run, comma-separated (1-5)")
     ap.add_argument("--look-ahead", action="store_true",
                     help="diagnostic 4 follows the look-ahead expert (GoalReachingExpert(look_ahead=True))")
+    ap.add_argument("--top-k", default="1,2,3", help="diagnostic 5: the k values, comma-separated")
     args = ap.parse_args(argv)
     if args.every < 1:
         ap.error(f"--every must be at least 1, got {args.every}")
     chosen = set(args.diagnostics.split(","))
-    if not chosen <= {"1", "2", "3", "4"}:
-        ap.error(f"--diagnostics takes numbers 1-4, got {args.diagnostics!r}")
+    if not chosen <= {"1", "2", "3", "4", "5"}:
+        ap.error(f"--diagnostics takes numbers 1-5, got {args.diagnostics!r}")
+    try:
+        top_k = [int(k) for k in args.top_k.split(",")]
+    except ValueError:
+        top_k = []
+    if not top_k or min(top_k) < 1:
+        ap.error(f"--top-k takes positive integers, comma-separated, got {args.top_k!r}")
     suite = load_suite(args.suite)
     cases = suite.cases[::args.every]
     params = SlipParams(friction=suite.friction)
@@ -183,6 +229,10 @@ def main(argv=None):
         print(f"4. expert's path: the one-step mode planner's foothold is goal-reaching in {100 * hit:.1f} % of "
               f"{n} states (goal-reaching sets: median {width:g} candidates of 2.5 cm); at every state of "
               f"{100 * whole:.1f} % of the cases")
+    if "5" in chosen:
+        for k in top_k:
+            success, failures = top_k_oracle(cases, suite.goal_x, params, args.weights, k)
+            print(f"5. top-{k} oracle: {100 * success:.1f} % reach the goal; failures {failures}")
 
 
 if __name__ == "__main__":

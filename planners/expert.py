@@ -78,21 +78,27 @@ class GoalReachingExpert:
         self.search = StepSpacePlanner(controller=self.controller, max_nodes=max_nodes, max_time_s=max_time_s)
 
     def label(self, apex, terrain: Terrain, goal_x: float, params: SlipParams) -> ExpertLabel:
-        label, apexes, target_x = self._candidates(apex, terrain, goal_x, params)
+        label, apexes, target_x = self.candidates(apex, terrain, goal_x, params)
         if label.choice < 0 or not self.look_ahead:
             return label
-        depth, room = run_depth(label.reaching), {}
-        for i in np.flatnonzero(depth >= min(LOOK_AHEAD_MARGIN, depth.max())):
-            if label.x_l[i] >= target_x:  # past the target: nothing left to keep room for
-                room[i] = np.inf
-                continue
-            after = self._candidates(apexes[i], terrain, goal_x, params)[0]
-            label.ode_calls += after.ode_calls
-            room[i] = run_depth(after.reaching).max(initial=0)
+        depth = run_depth(label.reaching)
+        room = {i: self.room(label, i, apexes, target_x, terrain, goal_x, params)
+                for i in np.flatnonzero(depth >= min(LOOK_AHEAD_MARGIN, depth.max()))}
         label.choice = int(max(room, key=lambda i: (room[i], depth[i], i)))
         return label
 
-    def _candidates(self, apex, terrain: Terrain, goal_x: float, params: SlipParams):
+    def room(self, label: ExpertLabel, i: int, apexes, target_x: float, terrain: Terrain, goal_x: float,
+             params: SlipParams) -> float:
+        """How much room candidate ``i`` of ``label`` (from ``candidates``) leaves a hop later: the deepest run of
+        goal-reaching candidates from the apex it reaches, infinite past the target (nothing left to keep room
+        for). Its step-map calls are added to ``label.ode_calls``."""
+        if label.x_l[i] >= target_x:
+            return np.inf
+        after = self.candidates(apexes[i], terrain, goal_x, params)[0]
+        label.ode_calls += after.ode_calls
+        return float(run_depth(after.reaching).max(initial=0))
+
+    def candidates(self, apex, terrain: Terrain, goal_x: float, params: SlipParams):
         """The plain label (no look-ahead), each candidate's next apex and the target x."""
         problem = self.grid.problem(apex, terrain, goal_x, params, time.perf_counter())
         x_l = self.grid.candidates(problem.apex, terrain, params, self.spacing, until=problem.window_end)

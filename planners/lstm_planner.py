@@ -120,7 +120,7 @@ class LSTMPlanner(Planner):
             p = softmax(logits, mask)
             score = np.where(usable & (grid > behind), np.interp(grid, centres, p[0]), 0.0)
             if not footholds:
-                score = self._reachable(apex, grid, score, terrain, params)
+                score = self._reachable(problem, grid, score)
             if not score.any():
                 break
             footholds.append(behind := float(grid[score.argmax()]))
@@ -140,13 +140,14 @@ class LSTMPlanner(Planner):
         seq = FootstepSequence(footholds, angles, np.full((footholds.size, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])
 
-    def _reachable(self, apex, grid, score, terrain, params, tries: int = 32):
-        """``score`` kept only on the best ``tries`` footholds the controller reaches inside the friction cone."""
+    def _reachable(self, problem: Problem, grid, score, tries: int = 32):
+        """``score`` kept only on the best ``tries`` first footholds the controller reaches inside the friction
+        cone."""
         order = np.argsort(-score)[:tries]
         order = order[score[order] > 0]
         kept = np.zeros_like(score)
         if order.size:
-            theta = self.controller.leg_angles(apex, grid[order], terrain)
-            ok = np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction)
+            theta = self.controller.leg_angles(problem.apex, grid[order], problem.terrain)
+            ok = np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(problem.params.friction)
             kept[order[ok]] = score[order[ok]]
         return kept

@@ -146,3 +146,27 @@ def test_the_expert_path_diagnostic_scores_each_state(example):
     hit, width, whole, n = diagnostics.expert_path(cases, 2.0, params, _ExpertPolicy(expert), expert)
     assert (hit, whole) == (1.0, 1.0) and n >= 2 and width >= 1
     assert diagnostics.expert_path(cases, 2.0, params, _Policy(-3.0), expert)[::2] == (0.0, 0.0)
+
+
+def test_the_top_k_oracle_is_the_mode_planner_at_k_1_and_picks_a_goal_reaching_foothold(example):
+    """examples/lstm_diagnostics.py --diagnostics 5: with k = 1 the oracle plans the one-step mode planner's
+    foothold; with k = 8 a goal-reaching one, leaving at least as much room a hop later as the mode does."""
+    from planners import make
+    from planners.lstm_planner import EXPERT_WEIGHTS
+
+    diagnostics = example("lstm_diagnostics")
+    params, apex = ds.SlipParams(friction=0.8), ds.ApexState(0.0, 0.7, 1.0)
+    window = perceived(ds.ditch_world(1003), apex.x)
+    mode = float(make("lstm", weights=EXPERT_WEIGHTS, max_steps=1).plan(apex, window, 10.0, params).footholds[0])
+    one = diagnostics.TopKOracle(1, weights=EXPERT_WEIGHTS).plan(apex, window, 10.0, params)
+    assert one.footholds.tolist() == [mode]
+
+    oracle = diagnostics.TopKOracle(8, weights=EXPERT_WEIGHTS)
+    pick = float(oracle.plan(apex, window, 10.0, params).footholds[0])
+    label, apexes, target_x = oracle.expert.candidates(apex, window, 10.0, params)
+
+    def room(x):
+        return oracle.expert.room(label, int(np.abs(label.x_l - x).argmin()), apexes, target_x, window, 10.0, params)
+
+    assert oracle.expert.goal_reaching(label, pick)
+    assert not oracle.expert.goal_reaching(label, mode) or room(pick) >= room(mode)
