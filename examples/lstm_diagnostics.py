@@ -123,10 +123,10 @@ class TopKOracle(LSTMPlanner):
         return np.where(np.arange(score.size) == pick, score, 0.0)
 
 
-def top_k_oracle(cases, goal_x, params, weights, k: int):
-    """Diagnostic 5: (share of cases the top-k oracle crosses on the fast backend, its failures by kind)."""
-    oracle = TopKOracle(k, weights=weights)
-    results = [run_case(oracle, oracle.controller, case, goal_x, params, EvalConfig(backend="fast")) for case in cases]
+def crossed(planner, cases, goal_x, params):
+    """(share of ``cases`` ``planner`` crosses in the receding-horizon protocol on the fast backend, its failures
+    by kind): diagnostics 3 and 5."""
+    results = [run_case(planner, planner.controller, case, goal_x, params, EvalConfig(backend="fast")) for case in cases]
     failures = Counter(r["failure"] for r in results if not r["success"])
     return float(np.mean([r["success"] for r in results])), dict(failures)
 
@@ -161,13 +161,6 @@ def search(cases, goal_x, params, weights):
             planner.plan(case.apex, perceived(case.terrain, case.apex.x), goal_x, params)
         print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
 
-
-def greedy_oracle(cases, goal_x, params, weights):
-    """Diagnostic 3: (share of cases the greedy oracle crosses on the fast backend, its failures by kind)."""
-    oracle = GreedyOracle(weights=weights)
-    results = [run_case(oracle, oracle.controller, case, goal_x, params, EvalConfig(backend="fast")) for case in cases]
-    failures = Counter(r["failure"] for r in results if not r["success"])
-    return float(np.mean([r["success"] for r in results])), dict(failures)
 
 
 def expert_path(cases, goal_x, params, planner, expert=None):
@@ -220,7 +213,7 @@ def main(argv=None):
     if "2" in chosen:
         search(cases, suite.goal_x, params, args.weights)
     if "3" in chosen:
-        success, failures = greedy_oracle(cases, suite.goal_x, params, args.weights)
+        success, failures = crossed(GreedyOracle(weights=args.weights), cases, suite.goal_x, params)
         print(f"3. greedy oracle: {100 * success:.1f} % reach the goal; failures {failures}")
     if "4" in chosen:
         mode = make("lstm", weights=args.weights, max_steps=1)
@@ -231,7 +224,7 @@ def main(argv=None):
               f"{100 * whole:.1f} % of the cases")
     if "5" in chosen:
         for k in top_k:
-            success, failures = top_k_oracle(cases, suite.goal_x, params, args.weights, k)
+            success, failures = crossed(TopKOracle(k, weights=args.weights), cases, suite.goal_x, params)
             print(f"5. top-{k} oracle: {100 * success:.1f} % reach the goal; failures {failures}")
 
 
