@@ -162,7 +162,6 @@ def search(cases, goal_x, params, weights):
         print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
 
 
-
 def expert_path(cases, goal_x, params, planner, expert=None):
     """(share of the expert's states where ``planner``'s first foothold is goal-reaching, median goal-reaching
     set width in candidates, share of cases where it is goal-reaching at every state, states)."""
