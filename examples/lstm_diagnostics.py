@@ -115,8 +115,8 @@ class TopKOracle(LSTMPlanner):
         label, apexes, target_x = self.expert.candidates(problem.apex, problem.terrain, problem.goal_x, problem.params)
         room = {}
         for i in top:
-            j = int(np.abs(label.x_l - grid[i]).argmin())
-            if self.expert.goal_reaching(label, grid[i]):
+            j = self.expert.candidate_index(label, grid[i])
+            if j >= 0 and label.reaching[j]:
                 room[i] = self.expert.room(label, j, apexes, target_x, problem.terrain, problem.goal_x,
                                            problem.params)
         pick = max(room, key=room.get) if room else top[0]  # max keeps the more probable of equal rooms

@@ -116,10 +116,15 @@ class GoalReachingExpert:
         label = ExpertLabel(x_l, reaching, int(np.flatnonzero(depth == depth.max())[-1]), calls)
         return label, apexes, problem.target_x
 
+    def candidate_index(self, label: ExpertLabel, x: float) -> int:
+        """The index of ``label``'s candidate at foothold ``x`` (within half a grid step), -1 if none is."""
+        j = int(np.abs(label.x_l - x).argmin())
+        return j if abs(label.x_l[j] - x) < self.spacing / 2 else -1
+
     def goal_reaching(self, label: ExpertLabel, x: float) -> bool:
         """Whether foothold ``x`` is one of ``label``'s goal-reaching candidates."""
-        j = int(np.abs(label.x_l - x).argmin())
-        return bool(label.reaching[j]) and abs(label.x_l[j] - x) < self.spacing / 2
+        j = self.candidate_index(label, x)
+        return j >= 0 and bool(label.reaching[j])
 
     def rollout(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams,
                 rng: np.random.Generator, explore: float = 0.0, max_hops: int = 40, policy=None) -> list:

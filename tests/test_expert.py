@@ -166,7 +166,8 @@ def test_the_top_k_oracle_is_the_mode_planner_at_k_1_and_picks_a_goal_reaching_f
     label, apexes, target_x = oracle.expert.candidates(apex, window, 10.0, params)
 
     def room(x):
-        return oracle.expert.room(label, int(np.abs(label.x_l - x).argmin()), apexes, target_x, window, 10.0, params)
+        return oracle.expert.room(label, oracle.expert.candidate_index(label, x), apexes, target_x, window, 10.0,
+                                  params)
 
     assert oracle.expert.goal_reaching(label, pick)
     assert not oracle.expert.goal_reaching(label, mode) or room(pick) >= room(mode)
