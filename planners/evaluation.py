@@ -244,6 +244,8 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
             else:
                 todo.append((name, c))
     bar = tqdm(total=len(todo), desc=f"{suite.name}", disable=not progress, unit="case")
+    if cache_path:
+        Path(cache_path).parent.mkdir(parents=True, exist_ok=True)
     sink = open(cache_path, "a") if cache_path else None
     try:
         def finish(name, result):

@@ -11,6 +11,7 @@ from drakeslip.controller import StepLengthController
 
 from .angle_space import EDGE_MARGIN
 from .base import FootstepSequence, Plan, Planner, Problem
+from .foothold_ranker import FootholdRanker, candidate_features, log_probability, top_candidates
 from .lstm_inference import NumpyFootstepModel, softmax
 from .lstm_inputs import WindowEncoding, encode_window
 from .lstm_model import FootstepModel, load_checkpoint
@@ -22,6 +23,8 @@ SUBCELL_WEIGHTS = DEFAULT_WEIGHTS.with_name("lstm_subcell.pt")  # beyond the pap
 # beyond the paper, for the mode planner: trained on the goal-reaching expert's rollouts (planners/expert.py) and
 # two DAgger rounds, 256 LSTM units and 32 CNN channels; use with max_steps=1 (docs/results.md, "DAgger")
 EXPERT_WEIGHTS = DEFAULT_WEIGHTS.with_name("lstm_expert.pt")
+# beyond the paper: re-ranks the expert model's most probable first footholds (planners/foothold_ranker.py)
+RANKER_WEIGHTS = DEFAULT_WEIGHTS.with_name("ranker.pt")
 _MODELS: dict = {}
 
 
@@ -78,11 +81,16 @@ class LSTMPlanner(Planner):
     slides away from its edge): ahead of the previous foothold, on solid ground at least ``edge_margin`` from
     an edge, and, for the first step, reached by the controller inside the friction cone. The paper reports
     that its mode often failed on exactly these two counts (friction cone, edges); both can be checked without
-    simulating."""
+    simulating.
+
+    With a ``ranker`` (a weights file of planners/foothold_ranker.py, e.g. RANKER_WEIGHTS, trained for the
+    EXPERT_WEIGHTS model and ``max_steps=1``), the first foothold is the ranker's pick among the ``top_k`` most
+    probable usable ones rather than the first of them: a learned network evaluation per candidate, still no
+    step-map call."""
 
     def __init__(self, weights=None, max_steps: int = 12, mask_ditches: bool = True,
                  controller: StepLengthController | None = None, edge_margin: float = EDGE_MARGIN,
-                 feedback: str = "distribution", **budget):
+                 feedback: str = "distribution", ranker=None, top_k: int = 5, **budget):
         super().__init__(**budget)
         if feedback not in ("distribution", "mode"):
             raise ValueError(f"feedback must be 'distribution' or 'mode', got {feedback!r}")
@@ -94,6 +102,10 @@ class LSTMPlanner(Planner):
         self.max_steps = max_steps
         self.controller = controller or StepLengthController.load_default()
         self.edge_margin = float(edge_margin)
+        if not (isinstance(top_k, int) and top_k >= 1):
+            raise ValueError(f"top_k must be a positive integer, got {top_k!r}")
+        self.top_k = top_k
+        self.ranker = None if ranker is None else FootholdRanker(ranker)
 
     def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0):
         """Per-step probabilities over the window's bins (its cells, or their parts for a sub-cell model),
@@ -120,7 +132,7 @@ class LSTMPlanner(Planner):
             p = softmax(logits, mask)
             score = np.where(usable & (grid > behind), np.interp(grid, centres, p[0]), 0.0)
             if not footholds:
-                score = self._reachable(problem, grid, score)
+                score = self._ranked(problem, grid, self._reachable(problem, grid, score))
             if not score.any():
                 break
             footholds.append(behind := float(grid[score.argmax()]))
@@ -139,6 +151,18 @@ class LSTMPlanner(Planner):
         angles[0] = self.controller.leg_angle(apex, footholds[0], terrain)
         seq = FootstepSequence(footholds, angles, np.full((footholds.size, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])
+
+    def _ranked(self, problem: Problem, grid, score):
+        """``score`` kept only on the ranker's pick among the ``top_k`` most probable first footholds (unchanged
+        without a ranker)."""
+        top = top_candidates(score, self.top_k)
+        if self.ranker is None or top.size < 2:
+            return score
+        x = grid[top]
+        features = candidate_features(problem, x, log_probability(score, top),
+                                      self.controller.leg_angles(problem.apex, x, problem.terrain))
+        pick = top[int(np.argmax(self.ranker.scores(features)))]
+        return np.where(np.arange(score.size) == pick, score, 0.0)
 
     def _reachable(self, problem: Problem, grid, score, tries: int = 32):
         """``score`` kept only on the best ``tries`` first footholds the controller reaches inside the friction

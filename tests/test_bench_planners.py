@@ -5,7 +5,7 @@ import pytest
 import planners
 from drakeslip import ApexState, SlipParams, ditch_world
 from planners.evaluation import perceived
-from planners.lstm_planner import SUBCELL_WEIGHTS
+from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS
 
 TERRAIN = perceived(ditch_world(1003), 0.0)
 APEX = (0.0, 0.9, 2.0)
@@ -18,8 +18,10 @@ def controller():
     return StepLengthController.load_default()
 
 
-# beyond-the-paper settings of LSTM-guided, side by side with the paper's (see README, learned planners)
-VARIANTS = {"lstm-guided@lazy": {"lazy": True}, "lstm-guided@lazy-apex": {"lazy": True, "conditioning": "apex"}}
+# beyond-the-paper settings of LSTM-guided and of the mode planner, side by side with the paper's (README)
+VARIANTS = {"lstm-guided@lazy": {"lazy": True}, "lstm-guided@lazy-apex": {"lazy": True, "conditioning": "apex"},
+            "lstm@expert-1": {"weights": EXPERT_WEIGHTS, "max_steps": 1},
+            "lstm@ranker": {"weights": EXPERT_WEIGHTS, "max_steps": 1, "ranker": RANKER_WEIGHTS}}
 
 
 @pytest.mark.parametrize("name", ["heuristic", "angle", "step", "lstm", "lstm-guided", *VARIANTS])

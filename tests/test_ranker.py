@@ -1,0 +1,122 @@
+"""The foothold ranker (planners/foothold_ranker.py): its label, its use by the mode planner, its weights file and
+its DAgger training script."""
+import numpy as np
+import pytest
+import torch
+
+import drakeslip as ds
+from planners import make
+from planners.evaluation import perceived
+from planners.foothold_ranker import (N_FEATURES, ROOM_CAP, FootholdRanker, OneHopRoom, RankerNet,
+                                      candidate_features, save_ranker)
+from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, LSTMPlanner
+
+PARAMS, APEX = ds.SlipParams(friction=0.8), ds.ApexState(0.0, 0.7, 1.0)
+WINDOW = perceived(ds.ditch_world(1003), APEX.x)
+RANK = 6  # the feature that holds a candidate's rank (0: most probable)
+
+
+def rank_ranker(path, sign):
+    """A ranker whose score is ``sign`` times the candidate's rank: +1 picks the least probable of the top k."""
+    net = RankerNet(hidden=4)
+    with torch.no_grad():
+        for layer in net.mlp[::2]:
+            layer.weight.zero_()
+            layer.bias.zero_()
+        net.mlp[0].weight[0, RANK] = 1.0
+        net.mlp[2].weight[0, 0] = 1.0
+        net.mlp[4].weight[0, 0] = sign
+    save_ranker(path, net, np.zeros(N_FEATURES), np.ones(N_FEATURES))
+    return path
+
+
+class Recording(LSTMPlanner):
+    def _ranked(self, problem, grid, score):
+        self.seen = grid[np.argsort(-score, kind="stable")][:int((score > 0).sum())]
+        return super()._ranked(problem, grid, score)
+
+
+@pytest.mark.parametrize("top_k", [1, 2, 3])
+def test_the_ranker_picks_among_the_top_k_first_footholds(tmp_path, top_k):
+    last = Recording(weights=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "last.pt", 1.0), top_k=top_k)
+    plan = last.plan(APEX, WINDOW, 10.0, PARAMS)
+    assert plan.footholds.tolist() == [last.seen[top_k - 1]]
+    first = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "first.pt", -1.0), top_k=3)
+    mode = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1).plan(APEX, WINDOW, 10.0, PARAMS)
+    assert first.plan(APEX, WINDOW, 10.0, PARAMS).footholds.tolist() == mode.footholds.tolist() == [last.seen[0]]
+    assert plan.ode_calls == 0
+
+
+def test_the_committed_ranker_plans_with_no_step_map_call():
+    planner = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1, ranker=RANKER_WEIGHTS)
+    plan = planner.plan(APEX, WINDOW, 10.0, PARAMS)
+    assert plan.success and plan.ode_calls == 0 and plan.footholds.size == 1
+
+
+def test_the_numpy_ranker_computes_the_torch_network(tmp_path):
+    torch.manual_seed(0)
+    net = RankerNet(hidden=16).eval()
+    mean, std = np.linspace(-1, 1, N_FEATURES), np.linspace(0.5, 2, N_FEATURES)
+    save_ranker(tmp_path / "r.pt", net, mean, std)
+    features = np.random.default_rng(0).normal(size=(5, N_FEATURES))
+    with torch.no_grad():
+        expected = net(torch.tensor((features - mean) / std, dtype=torch.float32)).numpy()
+    np.testing.assert_allclose(FootholdRanker(tmp_path / "r.pt").scores(features), expected, atol=1e-5)
+
+
+def test_a_corrupt_or_mismatched_ranker_file_is_a_clear_error(tmp_path):
+    (tmp_path / "junk.pt").write_bytes(b"not a checkpoint")
+    with pytest.raises(ValueError, match="cannot read ranker weights file .*junk.pt"):
+        FootholdRanker(tmp_path / "junk.pt")
+    torch.save({"format": "something-else"}, tmp_path / "other.pt")
+    with pytest.raises(ValueError, match="not a drakeslip ranker checkpoint"):
+        FootholdRanker(tmp_path / "other.pt")
+    save_ranker(tmp_path / "old.pt", RankerNet(hidden=4), np.zeros(N_FEATURES), np.ones(N_FEATURES))
+    payload = torch.load(tmp_path / "old.pt", weights_only=False)
+    payload["n_features"] = N_FEATURES - 1
+    torch.save(payload, tmp_path / "old.pt")
+    with pytest.raises(ValueError, match="does not match the ranker.*features"):
+        FootholdRanker(tmp_path / "old.pt")
+    with pytest.raises(ValueError, match="top_k must be a positive integer, got 0"):
+        make("lstm", weights=EXPERT_WEIGHTS, top_k=0)
+
+
+def test_one_hop_room_labels_a_failed_hop_a_hop_past_the_target_and_one_with_room():
+    planner = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1)
+    problem = planner.problem(APEX, WINDOW, 10.0, PARAMS, 0.0)
+    mode = planner.plan(APEX, WINDOW, 10.0, PARAMS).footholds
+    x = np.array([mode[0], mode[0], 0.3])
+    theta = planner.controller.leg_angles(APEX, x, WINDOW)
+    theta[2] = np.nan  # not aimed: the hop is not made
+    room = OneHopRoom(planner.controller)(problem, x, theta)
+    assert room[0] == room[1] and 1 <= room[0] <= ROOM_CAP and room[2] == -1
+    near = planner.problem(APEX, WINDOW, 0.3, PARAMS, 0.0)  # a goal the mode's hop passes
+    assert OneHopRoom(planner.controller)(near, x[:1], theta[:1]).tolist() == [ROOM_CAP]
+    features = candidate_features(problem, x, np.log([0.5, 0.3, 0.2]), theta)
+    assert features.shape == (3, N_FEATURES) and features[:, RANK].tolist() == [0, 1, 2]
+
+
+def test_ranker_training_resumes_without_redoing_finished_work(tmp_path, example):
+    script = example("train_ranker")
+    args = ["--data-dir", str(tmp_path / "data"), "--out", str(tmp_path / "ranker.pt"), "--rounds", "2",
+            "--terrains", "1", "--families", "ditch", "--epochs", "2", "--jobs", "1"]
+    script.main(args)
+    shards = sorted((tmp_path / "data").glob("*.npz"))
+    assert [p.name for p in shards] == ["round0-ditch-100000.npz", "round1-ditch-110000.npz"]
+    before = {p.name: p.stat().st_mtime_ns for p in shards}
+    first = FootholdRanker(tmp_path / "ranker.pt").layers
+    (tmp_path / "data" / "round1-ditch-110000.npz").unlink()
+    (tmp_path / "data" / "round1.pt").unlink()
+    script.main(args)
+    assert (tmp_path / "data" / "round0-ditch-100000.npz").stat().st_mtime_ns == before["round0-ditch-100000.npz"]
+    for (w0, b0), (w1, b1) in zip(first, FootholdRanker(tmp_path / "ranker.pt").layers):
+        np.testing.assert_array_equal(w0, w1)
+        np.testing.assert_array_equal(b0, b1)
+    with pytest.raises(SystemExit):
+        script.main(args + ["--families", "ditch,lava"])
+    with pytest.raises(SystemExit, match="made with other settings .top_k: 5, now 3"):
+        script.main(args + ["--top-k", "3"])
+    (tmp_path / "data" / "round1.pt").unlink()
+    (tmp_path / "data" / "round1-ditch-110000.npz").write_bytes(b"cut short")
+    with pytest.raises(ValueError, match="ranker data shard .*round1-ditch-110000.npz does not read"):
+        script.main(args)
