@@ -20,17 +20,20 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from drakeslip.files import atomic_write  # noqa: E402
 from planners import planner_name  # noqa: E402
 from planners.evaluation import EvalConfig, evaluate, write_json  # noqa: E402
-from planners.lstm_planner import EXPERT_WEIGHTS, SUBCELL_WEIGHTS  # noqa: E402
+from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS  # noqa: E402
 from planners.suite import load_suite  # noqa: E402
 
 # Beyond the paper: LSTM-guided with the sub-cell model, simulating one sampled child at a time and restarting
 # the model from each node's apex (README, "The CNN+LSTM footstep model"); compared with the paper's LSTM-Guided.
-# The LSTM mode one step ahead with the model trained on the goal-reaching expert (docs/results.md).
+# The LSTM mode one step ahead with the model trained on the goal-reaching expert, and the same with the learned
+# re-ranker of its five most probable first footholds (docs/results.md).
 BEYOND = {"lstm@ours": {"weights": str(EXPERT_WEIGHTS), "max_steps": 1},
+          "lstm@ranked": {"weights": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)},
           "lstm-guided@ours": {"weights": str(SUBCELL_WEIGHTS), "lazy": True, "conditioning": "apex"}}
 PLANNERS = ("heuristic", "angle", "step", "lstm", "lstm-guided", *BEYOND)
 LABELS = {"heuristic": "Heuristic", "angle": "Angle-space", "step": "Step-space", "lstm": "LSTM",
           "lstm-guided": "LSTM-Guided", "lstm@ours": "LSTM, beyond the paper",
+          "lstm@ranked": "LSTM + learned re-ranker, beyond the paper",
           "lstm-guided@ours": "LSTM-Guided, beyond the paper"}
 # The paper's Tables II (ditch) and III (step): success %, ODE calls, t_plan [s].
 PAPER = {
