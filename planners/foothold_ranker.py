@@ -55,8 +55,10 @@ class OneHopRoom:
 
     def __call__(self, problem: Problem, x: np.ndarray, theta: np.ndarray) -> np.ndarray:
         ok, apexes = self.grid.simulate(problem, problem.apex, x, theta)
-        return np.array([self._room(problem, a) if works and xi < problem.target_x else ROOM_CAP if works else -1.0
-                         for xi, works, a in zip(x, ok, apexes)])
+        rooms = np.full(x.size, -1.0)
+        for i in np.flatnonzero(ok):
+            rooms[i] = ROOM_CAP if x[i] >= problem.target_x else self._room(problem, apexes[i])
+        return rooms
 
     def _room(self, problem: Problem, apex) -> float:
         x_l = self.grid.candidates(apex, problem.terrain, problem.params, SPACING, until=problem.window_end)
@@ -109,7 +111,6 @@ class FootholdRanker:
             raise ValueError(f"ranker weights file {path} does not match the ranker: {err}") from err
         self.layers = [(m.weight.detach().double().numpy().T, m.bias.detach().double().numpy())
                        for m in net.mlp if isinstance(m, nn.Linear)]
-        self.payload = payload
 
     def scores(self, features: np.ndarray) -> np.ndarray:
         h = (features - self.mean) / self.std
