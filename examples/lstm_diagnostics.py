@@ -38,6 +38,7 @@ from planners import make  # noqa: E402
 from planners.base import FootstepSequence, Plan  # noqa: E402
 from planners.evaluation import EvalConfig, perceived, run_case  # noqa: E402
 from planners.expert import GoalReachingExpert  # noqa: E402
+from planners.foothold_ranker import top_candidates  # noqa: E402
 from planners.lstm_guided import LSTMGuidedPlanner, PathConditionedSampler  # noqa: E402
 from planners.lstm_inference import softmax  # noqa: E402
 from planners.lstm_inputs import encode_window  # noqa: E402
@@ -106,10 +107,8 @@ class TopKOracle(LSTMPlanner):
         self.k = k
         self.expert = expert or GoalReachingExpert(controller=self.controller)
 
-    def _reachable(self, problem, grid, score, tries: int = 32):
-        score = super()._reachable(problem, grid, score, tries)
-        top = np.argsort(-score)[:self.k]
-        top = top[score[top] > 0]
+    def _ranked(self, problem, grid, score, theta):
+        top = top_candidates(score, self.k)
         if top.size < 2:
             return score
         label, apexes, target_x = self.expert.candidates(problem.apex, problem.terrain, problem.goal_x, problem.params)

@@ -132,7 +132,7 @@ class LSTMPlanner(Planner):
             p = softmax(logits, mask)
             score = np.where(usable & (grid > behind), np.interp(grid, centres, p[0]), 0.0)
             if not footholds:
-                score = self._ranked(problem, grid, self._reachable(problem, grid, score))
+                score = self._ranked(problem, grid, *self._reachable(problem, grid, score))
             if not score.any():
                 break
             footholds.append(behind := float(grid[score.argmax()]))
@@ -152,26 +152,24 @@ class LSTMPlanner(Planner):
         seq = FootstepSequence(footholds, angles, np.full((footholds.size, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])
 
-    def _ranked(self, problem: Problem, grid, score):
+    def _ranked(self, problem: Problem, grid, score, theta):
         """``score`` kept only on the ranker's pick among the ``top_k`` most probable first footholds (unchanged
-        without a ranker)."""
+        without a ranker); ``theta``: the controller's leg angles to ``grid``, from ``_reachable``."""
         top = top_candidates(score, self.top_k)
         if self.ranker is None or top.size < 2:
             return score
-        x = grid[top]
-        features = candidate_features(problem, x, log_probability(score, top),
-                                      self.controller.leg_angles(problem.apex, x, problem.terrain))
+        features = candidate_features(problem, grid[top], log_probability(score, top), theta[top])
         pick = top[int(np.argmax(self.ranker.scores(features)))]
         return np.where(np.arange(score.size) == pick, score, 0.0)
 
     def _reachable(self, problem: Problem, grid, score, tries: int = 32):
-        """``score`` kept only on the best ``tries`` first footholds the controller reaches inside the friction
-        cone."""
+        """(``score`` kept only on the best ``tries`` first footholds the controller reaches inside the friction
+        cone, the controller's leg angles to ``grid``: NaN where not aimed)."""
         order = np.argsort(-score)[:tries]
         order = order[score[order] > 0]
-        kept = np.zeros_like(score)
+        kept, theta = np.zeros_like(score), np.full(score.size, np.nan)
         if order.size:
-            theta = self.controller.leg_angles(problem.apex, grid[order], problem.terrain)
-            ok = np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(problem.params.friction)
+            theta[order] = self.controller.leg_angles(problem.apex, grid[order], problem.terrain)
+            ok = np.abs(np.nan_to_num(theta[order], nan=np.inf)) < math.atan(problem.params.friction)
             kept[order[ok]] = score[order[ok]]
-        return kept
+        return kept, theta

@@ -35,12 +35,11 @@ class CollectingPlanner(LSTMPlanner):
         self.label = OneHopRoom(self.controller)
         self.features, self.rooms = [], []
 
-    def _ranked(self, problem, grid, score):
+    def _ranked(self, problem, grid, score, theta):
         top = top_candidates(score, self.record_k)
         if top.size < 2:
             return score
-        x = grid[top]
-        theta = self.controller.leg_angles(problem.apex, x, problem.terrain)
+        x, theta = grid[top], theta[top]
         features = candidate_features(problem, x, log_probability(score, top), theta)
         room = self.label(problem, x, theta)
         self.features.append(np.pad(features, ((0, self.record_k - top.size), (0, 0))))

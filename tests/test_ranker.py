@@ -31,9 +31,9 @@ def rank_ranker(path, sign):
 
 
 class Recording(LSTMPlanner):
-    def _ranked(self, problem, grid, score):
+    def _ranked(self, problem, grid, score, theta):
         self.seen = grid[np.argsort(-score, kind="stable")][:int((score > 0).sum())]
-        return super()._ranked(problem, grid, score)
+        return super()._ranked(problem, grid, score, theta)
 
 
 @pytest.mark.parametrize("top_k", [1, 2, 3])
