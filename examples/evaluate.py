@@ -58,6 +58,8 @@ def main(argv=None):
 
     if args.every < 1 or (args.cases is not None and args.cases < 1):
         ap.error(f"--every and --cases must be positive, got --every {args.every} --cases {args.cases}")
+    if args.jobs < 1:
+        ap.error(f"--jobs must be at least 1, got {args.jobs}")
     names = [n for n in args.planners.split(",") if n]
     unknown = [n for n in names if planner_name(n) not in available()]
     if unknown:
@@ -72,7 +74,10 @@ def main(argv=None):
         make_planners(options)
     except ValueError as error:
         ap.error(f"--{error}")  # "--options for LABEL: ..."
-    suite = load_suite(args.suite)
+    try:
+        suite = load_suite(args.suite)
+    except (OSError, ValueError) as error:  # a missing or malformed suite file
+        ap.error(str(error))
     cache = Path(args.out + ".cases.jsonl")
     if args.no_resume and cache.exists():
         cache.unlink()

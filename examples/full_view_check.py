@@ -8,11 +8,11 @@ case cannot be crossed.
 from __future__ import annotations
 
 import argparse
-import json
 import shlex
 import sys
 
 from drakeslip import SlipParams
+from drakeslip.files import read_json
 from planners import make
 from planners.suite import load_suite
 
@@ -25,7 +25,10 @@ def main(argv=None):
     ap.add_argument("--seconds", type=float, default=20.0, help="time budget of each full-view search")
     args = ap.parse_args(argv)
     print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
-    results, suite = json.loads(open(args.results).read()), load_suite(args.suite)
+    try:
+        results, suite = read_json(args.results, "results file"), load_suite(args.suite)
+    except (OSError, ValueError) as error:  # a missing or malformed file
+        ap.error(str(error))
     cases = {c.id: c for c in suite.cases}
     names = args.planners.split(",")
     failed = {n: {c["id"] for c in results["planners"][n]["cases"] if not c["success"]} for n in names}

@@ -84,6 +84,8 @@ def main(argv=None):
     ap.add_argument("--executor", choices=("local", "ray"), default="local")
     ap.add_argument("--ray-address", default=None, help="Ray cluster address (default: start a local instance)")
     args = ap.parse_args(argv)
+    if args.jobs < 1:
+        ap.error(f"--jobs must be at least 1, got {args.jobs}")
     pair = lambda text, name: tuple(float(v) for v in text.split(",")) if len(text.split(",")) == 2 else \
         ap.error(f"--{name} must be low,high, got {text!r}")
     try:

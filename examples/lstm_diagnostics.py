@@ -199,7 +199,10 @@ def main(argv=None):
         top_k = []
     if not top_k or min(top_k) < 1:
         ap.error(f"--top-k takes positive integers, comma-separated, got {args.top_k!r}")
-    suite = load_suite(args.suite)
+    try:
+        suite = load_suite(args.suite)
+    except (OSError, ValueError) as error:  # a missing or malformed suite file
+        ap.error(str(error))
     cases = suite.cases[::args.every]
     params = SlipParams(friction=suite.friction)
     print(f"{suite.name}: {len(cases)} cases, model {args.weights or 'planners/weights/lstm.pt'}")

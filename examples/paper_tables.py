@@ -19,7 +19,7 @@ from pathlib import Path
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from drakeslip.files import atomic_write  # noqa: E402
 from planners import planner_name  # noqa: E402
-from planners.evaluation import EvalConfig, evaluate, write_json  # noqa: E402
+from planners.evaluation import EvalConfig, evaluate, make_planners, write_json  # noqa: E402
 from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS  # noqa: E402
 from planners.suite import load_suite  # noqa: E402
 
@@ -86,11 +86,20 @@ def main(argv=None):
     args = ap.parse_args(argv)
     command = "python3 examples/paper_tables.py " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
     names = [n for n in args.planners.split(",") if n]
+    if not names or (args.cases is not None and args.cases < 1) or args.jobs < 1:
+        ap.error(f"need planners, --cases >= 1 and --jobs >= 1, got {args.planners!r}, {args.cases}, {args.jobs}")
+    try:  # an unknown planner or bad option is refused before any suite runs
+        make_planners({n: BEYOND.get(n, {}) for n in names})
+    except ValueError as error:
+        ap.error(str(error))
     Path(args.out_dir).mkdir(parents=True, exist_ok=True)
     sections = [f"Made by `{command}`; execution on the {args.backend} backend."]
-    suites = [("ditch", args.ditch), ("step", args.step)] + [(None, p) for p in args.extra.split(",") if p]
-    for family, path in suites:
-        suite = load_suite(path)
+    paths = [("ditch", args.ditch), ("step", args.step)] + [(None, p) for p in args.extra.split(",") if p]
+    try:  # every suite is read before the first is evaluated: a malformed last one must not cost an hour
+        suites = [(family, load_suite(path)) for family, path in paths]
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    for family, suite in suites:
         out = Path(args.out_dir) / f"results-{suite.name}.json"
         results = evaluate(suite, {n: BEYOND.get(n, {}) for n in names}, n_cases=args.cases, jobs=args.jobs,
                            cache_path=str(out) + ".cases.jsonl", config=EvalConfig(backend=args.backend))

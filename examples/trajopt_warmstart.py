@@ -139,7 +139,10 @@ def main(argv=None):
             check_seed(seed, options.get(seed), config)
     except ValueError as exc:
         ap.error(str(exc))
-    suite = load_suite(args.suite)
+    try:
+        suite = load_suite(args.suite)
+    except (OSError, ValueError) as error:  # a missing or malformed suite file
+        ap.error(str(error))
     cases = list(suite.cases[::args.every])[:args.cases]
     params = SlipParams(friction=suite.friction)
 

@@ -132,6 +132,23 @@ def test_bad_planner_options_on_the_cli_are_named_before_any_case_runs(tmp_path,
     assert not (tmp_path / "o.json").exists()
 
 
+@pytest.mark.parametrize("script, args", [("evaluate.py", ["--planners", "step", "--out", "o.json"]),
+                                           ("paper_tables.py", ["--planners", "step", "--step", "suites/step.json",
+                                                                "--out-dir", "."])])
+@pytest.mark.parametrize("text, message", [
+    ('{"format": "drakeslip-suite/1", "cases": 3', "is not valid JSON"),
+    ("[1, 2]", "must be an object, got list"),
+])
+def test_a_malformed_suite_file_is_named_on_the_cli(tmp_path, script, args, text, message):
+    (tmp_path / "bad.json").write_text(text)
+    flag = "--ditch" if script == "paper_tables.py" else "--suite"
+    run = subprocess.run([sys.executable, str(ROOT / "examples" / script), flag, str(tmp_path / "bad.json"),
+                          *[str(ROOT / a) if a.startswith("suites/") else a for a in args]],
+                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert run.returncode == 2 and f"suite file {tmp_path / 'bad.json'}" in run.stderr and message in run.stderr
+    assert "Traceback" not in run.stderr and not (tmp_path / "o.json").exists()
+
+
 def test_evaluate_refuses_a_bad_planner_option_by_label_before_any_case(tmp_path):
     suite = make_suite("ditch", seed=7, n_terrains=1)
     cache = tmp_path / "cache.jsonl"
