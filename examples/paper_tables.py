@@ -51,8 +51,9 @@ def ratio(ours: float, paper: float) -> str:
 def markdown(results: dict, paper: dict | None) -> str:
     """One table: our success, ODE calls and planning time per call, and (where the paper has the suite) the
     paper's numbers and ours / paper."""
-    head = "| Planner | Success % | ODE calls / plan | t_plan mean | t_plan median | Step-space's ODE calls / this |"
-    rule = "|---|---|---|---|---|---|"
+    head = ("| Planner | Success % | ODE calls / plan | t_plan mean | t_plan median | nodes expanded / plan | "
+            "footholds / plan | Step-space's ODE calls / this |")
+    rule = "|---|---|---|---|---|---|---|---|"
     if paper:
         head += " paper: Success % / ODE calls / t_plan | ratio ours/paper: success / ODE calls / t_plan |"
         rule += "---|---|"
@@ -63,7 +64,8 @@ def markdown(results: dict, paper: dict | None) -> str:
         ours = (100 * r["success_rate"], r["ode_calls_mean"], r["t_plan_mean_s"])
         vs_step = f"{step['ode_calls_mean'] / r['ode_calls_mean']:.1f}" if step and r["ode_calls_mean"] else "-"
         row = (f"| {LABELS.get(name, name)} | {ours[0]:.1f} | {ours[1]:.0f} | {ours[2] * 1e3:.2f} ms | "
-               f"{r['t_plan_median_s'] * 1e3:.2f} ms | {vs_step} |")
+               f"{r['t_plan_median_s'] * 1e3:.2f} ms | {r['nodes_expanded_mean']:.1f} | {r['footholds_mean']:.1f} | "
+               f"{vs_step} |")
         if paper:
             p = paper[planner_name(name)]
             row += (f" {p[0]} / {p[1]} / {p[2]:g} s | {ratio(ours[0], p[0])} / {ratio(ours[1], p[1])} / "

@@ -114,14 +114,18 @@ def run_case(planner, controller: StepLengthController, case: Case, goal_x: floa
 
 
 def summarize(cases: list) -> dict:
-    """The per-planner JSON block: success rate (fraction), ODE calls and planning time per planning call."""
+    """The per-planner JSON block: success rate (fraction), ODE calls, nodes expanded and planning time per
+    planning call, and the footholds per plan found (a search expands at least one node per foothold)."""
     calls = [p for c in cases for p in c["plans"]]
     times = [p["t_plan_s"] for p in calls]
+    lengths = [len(p["footholds"]) for p in calls if p["success"]]
     return {"success_rate": sum(c["success"] for c in cases) / len(cases) if cases else 0.0,
             "ode_calls_mean": statistics.fmean(p["ode_calls"] for p in calls) if calls else 0.0,
             "ode_calls_median": statistics.median(p["ode_calls"] for p in calls) if calls else 0.0,
             "t_plan_mean_s": statistics.fmean(times) if times else 0.0,
             "t_plan_median_s": statistics.median(times) if times else 0.0,
+            "nodes_expanded_mean": statistics.fmean(p["nodes_expanded"] for p in calls) if calls else 0.0,
+            "footholds_mean": statistics.fmean(lengths) if lengths else 0.0,
             "cases": cases}
 
 
@@ -130,11 +134,12 @@ def table(results: dict) -> str:
     w = max([12] + [len(name) for name in results["planners"]])
     rows = [f"Results on {results['suite']}",
             f"{'Planner':<{w}} {'Success %':>9} {'ODE calls':>10} {'ODE median':>10} {'t_plan mean':>12} "
-            f"{'t_plan median':>14} {'cases':>6}"]
+            f"{'t_plan median':>14} {'nodes/plan':>10} {'steps/plan':>10} {'cases':>6}"]
     for name, r in results["planners"].items():
         rows.append(f"{name:<{w}} {100 * r['success_rate']:>9.1f} {r['ode_calls_mean']:>10.0f} "
                     f"{r['ode_calls_median']:>10.0f} "
-                    f"{r['t_plan_mean_s']:>11.2g}s {r['t_plan_median_s']:>13.2g}s {len(r['cases']):>6}")
+                    f"{r['t_plan_mean_s']:>11.2g}s {r['t_plan_median_s']:>13.2g}s "
+                    f"{r['nodes_expanded_mean']:>10.1f} {r['footholds_mean']:>10.1f} {len(r['cases']):>6}")
     return "\n".join(rows)
 
 

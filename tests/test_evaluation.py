@@ -68,7 +68,7 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert set(results["planners"]) == {"heuristic", "step"}
     for block in results["planners"].values():
         assert set(block) == {"success_rate", "ode_calls_mean", "ode_calls_median", "t_plan_mean_s", "t_plan_median_s",
-                              "cases"}
+                              "nodes_expanded_mean", "footholds_mean", "cases"}
         assert len(block["cases"]) == 2
         for case in block["cases"]:
             assert set(case) == {"id", "success", "failure", "final_x", "plans"}
@@ -96,10 +96,14 @@ def test_every_kth_case_is_evaluated(tmp_path):
 def test_ratios_to_a_baseline_per_planning_call():
     def case(ode, t, found):
         return {"id": "c", "success": all(found), "failure": None, "final_x": 0.0,
-                "plans": [{"ode_calls": o, "t_plan_s": s, "success": f} for o, s, f in zip(ode, t, found)]}
+                "plans": [{"ode_calls": o, "t_plan_s": s, "success": f, "nodes_expanded": o // 10,
+                           "footholds": [1.0] * (o // 50 if f else 0)} for o, s, f in zip(ode, t, found)]}
     results = {"suite": "s", "planners": {
         "step": evaluation.summarize([case([100, 300], [1.0, 9.0], [True, False])]),
         "guided": evaluation.summarize([case([50, 50], [0.5, 3.0], [True, False])])}}
+    # nodes expanded per call, and footholds per plan over the calls that found one
+    assert (results["planners"]["step"]["nodes_expanded_mean"], results["planners"]["step"]["footholds_mean"]) == (20, 2)
+    assert "guided" in evaluation.table(results).splitlines()[-1].split()[0]
     row = evaluation.ratios(results, "step").splitlines()[-1].split()
     # ODE mean and median 200/50; time mean 5/1.75; over the calls that found a plan 1/0.5; median 5/1.75
     assert row == ["guided", "4.00x", "4.00x", "2.86x", "2.00x", "2.86x"]
