@@ -74,7 +74,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, Terrain, step_batch
+from drakeslip import ApexState, SlipParams, Terrain, step, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.fast_step import _rk4
 
@@ -331,7 +331,8 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
     with another model and lazy, apex-conditioned sampling), so two settings of a seed can be compared.
     ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model) unless ``options``
     name one. ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops,
-    the LSTM-guided search with sampling seed ``sample``)."""
+    the LSTM-guided search with sampling seed ``sample``). An ``lstm`` plan short of the target (the one-step mode
+    planner, e.g. with the learned re-ranker) is continued from the apexes the fast step map predicts."""
     kind = _check_seed_name(name, options)
     if sample and kind not in MULTI_START:
         raise ValueError(f"the {name} seed has one start; sample {sample!r} asked for another")
@@ -344,8 +345,33 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")
         footholds, ode_calls = np.asarray(plan.footholds, dtype=np.float64), plan.ode_calls
+        if kind == "lstm":
+            footholds, ode_calls = _requeried(planner, problem, footholds, ode_calls, max_hops)
     passed = np.flatnonzero(footholds >= problem.target_x)
     return (footholds[:passed[0] + 1] if passed.size else footholds), ode_calls
+
+
+def _requeried(planner, problem: Problem, footholds: np.ndarray, ode_calls: int, max_hops: int):
+    """An LSTM plan that stops short of the target (the one-step mode planner's single foothold) continued: the
+    controller aims each foothold, the fast step map predicts the apex after it, and the planner is asked again
+    from there, until the footholds pass the target, number ``max_hops``, a hop fails or no plan is found. The
+    footholds are still the model's; each prediction is one step-map call."""
+    footholds = list(footholds)
+    apex, done = problem.apex, 0
+    while footholds[-1] < problem.target_x and len(footholds) < max_hops:
+        for x in footholds[done:]:  # the apex after the footholds not yet executed
+            hop = step(apex, _controller().leg_angle(apex, x, problem.terrain), problem.terrain, problem.params)
+            ode_calls += 1
+            if not hop.ok:
+                return np.array(footholds), ode_calls
+            apex = hop.next_apex
+        done = len(footholds)
+        plan = planner.plan(apex, problem.terrain, problem.goal_x, problem.params)
+        if not plan.success or plan.footholds.size == 0:
+            break
+        footholds += plan.footholds.tolist()
+        ode_calls += plan.ode_calls
+    return np.array(footholds), ode_calls
 
 
 # ---- initial guess -----------------------------------------------------------------------------------------

@@ -239,6 +239,29 @@ def test_learned_seeds_give_increasing_footholds_to_the_target(seed):
     assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
 
 
+def test_the_one_step_lstm_seed_is_asked_again_at_each_predicted_apex():
+    """The mode planner with the ranker plans one foothold; as a seed it is re-queried at the apex the fast step
+    map predicts after each, so its footholds are the closed-loop rollout's, to the target."""
+    from drakeslip import ditch_world
+    from drakeslip.controller import StepLengthController
+    from planners import make
+    from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS
+
+    options = {"weights": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)}
+    terrain = ditch_world(1003)
+    problem = T.make_problem(APEX, terrain, 4.0, PARAMS)
+    footholds, calls = T.seed_footholds("lstm@ranked", problem, options=options)
+    assert footholds.size >= 3 and calls == footholds.size - 1  # one prediction per foothold before the last
+    assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
+    planner, controller = make("lstm", **options), StepLengthController.load_default()
+    apex = problem.apex
+    for x in footholds:  # each foothold is the planner's answer at the apex the previous ones lead to
+        assert planner.plan(apex, terrain, problem.goal_x, PARAMS).footholds[0] == x
+        apex = step_batch(apex, [controller.leg_angle(apex, x, terrain)], terrain, PARAMS).result(0).next_apex
+    short, _ = T.seed_footholds("lstm@ranked", problem, max_hops=2, options=options)
+    assert np.array_equal(short, footholds[:2])
+
+
 def test_config_checks():
     with pytest.raises(ValueError, match="collocation"):
         T.TrajoptConfig(collocation="trapezoid")
