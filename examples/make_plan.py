@@ -15,8 +15,9 @@ from pathlib import Path
 
 import drakeslip as ds
 import planners
-from planners.evaluation import perceived
+from planners.evaluation import make_planners, perceived
 from planners.plan_io import save_plan
+from planners.presets import PRESETS
 from planners.suite import load_suite
 
 
@@ -24,7 +25,8 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--suite", type=Path, required=True, help="suite file (drakeslip-suite/1 JSON)")
     parser.add_argument("--case", required=True, help="case index (0-based) or case id")
-    parser.add_argument("--planner", required=True, help=f"one of {', '.join(planners.available())}")
+    parser.add_argument("--planner", required=True, help=f"one of {', '.join(planners.available())}, or a preset "
+                        f"of settings beyond the paper: {', '.join(PRESETS)}")
     parser.add_argument("--options", default="{}",
                         help='the planner\'s options as a JSON object, e.g. \'{"seed": "lstm-guided"}\' for trajopt')
     parser.add_argument("--out", type=Path, required=True, help="plan file to write (JSON)")
@@ -37,8 +39,8 @@ def main(argv=None):
         parser.error(f"--options must be a JSON object of planner options, got {args.options!r}")
     try:
         suite = load_suite(args.suite)
-        planner = planners.make(args.planner, **options)
-    except (OSError, ValueError, TypeError) as error:  # TypeError: an option the planner does not take
+        planner = make_planners({args.planner: options})[args.planner]  # a label: NAME, NAME@VARIANT or a preset
+    except (OSError, ValueError) as error:
         parser.error(str(error))
     ids = [c.id for c in suite.cases]
     if args.case in ids:

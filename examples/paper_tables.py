@@ -20,21 +20,17 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 from drakeslip.files import atomic_write  # noqa: E402
 from planners import planner_name  # noqa: E402
 from planners.evaluation import EvalConfig, evaluate, make_planners, write_json  # noqa: E402
-from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS  # noqa: E402
 from planners.suite import load_suite  # noqa: E402
 
-# Beyond the paper: LSTM-guided with the sub-cell model, simulating one sampled child at a time and restarting
-# the model from each node's apex (README, "The CNN+LSTM footstep model"); compared with the paper's LSTM-Guided.
-# The LSTM mode one step ahead with the model trained on the goal-reaching expert, and the same with the learned
-# re-ranker of its five most probable first footholds (docs/results.md).
-BEYOND = {"lstm@ours": {"weights": str(EXPERT_WEIGHTS), "max_steps": 1},
-          "lstm@ranked": {"weights": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)},
-          "lstm-guided@ours": {"weights": str(SUBCELL_WEIGHTS), "lazy": True, "conditioning": "apex"}}
+# Beyond the paper (planners/presets.py): the LSTM mode one step ahead with the model trained on the goal-reaching
+# expert, the same with the learned re-ranker of its five most probable first footholds, and LSTM-guided with the
+# sub-cell model, simulating one sampled child at a time and restarting the model from each node's apex.
+BEYOND = ("lstm@dagger", "lstm@ranked", "lstm-guided@beyond")
 PLANNERS = ("heuristic", "angle", "step", "lstm", "lstm-guided", *BEYOND)
 LABELS = {"heuristic": "Heuristic", "angle": "Angle-space", "step": "Step-space", "lstm": "LSTM",
-          "lstm-guided": "LSTM-Guided", "lstm@ours": "LSTM, beyond the paper",
+          "lstm-guided": "LSTM-Guided", "lstm@dagger": "LSTM, beyond the paper",
           "lstm@ranked": "LSTM + learned re-ranker, beyond the paper",
-          "lstm-guided@ours": "LSTM-Guided, beyond the paper"}
+          "lstm-guided@beyond": "LSTM-Guided, beyond the paper"}
 # The paper's Tables II (ditch) and III (step): success %, ODE calls, t_plan [s].
 PAPER = {
     "ditch": {"heuristic": (24, 0, 2e-5), "angle": (58.6, 22661, 0.15), "step": (86.6, 30857, 0.29),
@@ -91,7 +87,7 @@ def main(argv=None):
     if not names or (args.cases is not None and args.cases < 1) or args.jobs < 1:
         ap.error(f"need planners, --cases >= 1 and --jobs >= 1, got {args.planners!r}, {args.cases}, {args.jobs}")
     try:  # an unknown planner or bad option is refused before any suite runs
-        make_planners({n: BEYOND.get(n, {}) for n in names})
+        make_planners({n: {} for n in names})
     except ValueError as error:
         ap.error(str(error))
     Path(args.out_dir).mkdir(parents=True, exist_ok=True)
@@ -103,7 +99,7 @@ def main(argv=None):
         ap.error(str(error))
     for family, suite in suites:
         out = Path(args.out_dir) / f"results-{suite.name}.json"
-        results = evaluate(suite, {n: BEYOND.get(n, {}) for n in names}, n_cases=args.cases, jobs=args.jobs,
+        results = evaluate(suite, {n: {} for n in names}, n_cases=args.cases, jobs=args.jobs,
                            cache_path=str(out) + ".cases.jsonl", config=EvalConfig(backend=args.backend))
         write_json(results, out)
         title = {"ditch": "Table II (ditch suite)", "step": "Table III (step suite)"}.get(family, suite.name)

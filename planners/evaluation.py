@@ -17,6 +17,7 @@ from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
 from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
 
+from .presets import options_for
 from .registry import make, planner_name, takes
 from .suite import Case, Suite
 
@@ -173,14 +174,15 @@ _WORKER: dict = {}
 
 
 def make_planners(planner_specs: dict, controller: StepLengthController | None = None) -> dict:
-    """The planners of a run by label, sharing ``controller`` with those that take one; an option a planner
-    does not take, or a bad value, is a ValueError naming the label."""
+    """The planners of a run by label, sharing ``controller`` with those that take one; a preset label with no
+    options gets the preset's (planners/presets.py). An option a planner does not take, or a bad value, is a
+    ValueError naming the label."""
     planners = {}
     for label, opts in planner_specs.items():
         name = planner_name(label)
         shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
         try:
-            planners[label] = make(name, **shared, **opts)
+            planners[label] = make(name, **shared, **options_for(label, opts))
         except (TypeError, ValueError) as error:  # TypeError: an unknown keyword
             raise ValueError(f"options for {label}: {error}") from error
     return planners
@@ -208,14 +210,15 @@ def _digest(path) -> str:
 
 def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, controller_path) -> str:
     """Identifies a (suite, planner, options, weights) run, so cached cases are reused only for the same setup:
-    retraining the controller or the LSTM invalidates them."""
+    retraining the controller, the LSTM or another weights file an option names (the ranker) invalidates them."""
     weights = None
     if takes(planner_name(planner), "weights"):
         from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
 
         weights = _digest(options.get("weights") or LSTM_WEIGHTS)
+    files = {k: _digest(v) for k, v in options.items() if k != "weights" and isinstance(v, str) and Path(v).is_file()}
     blob = json.dumps([suite.to_dict(), planner, options, config.__dict__, _digest(controller_path or DEFAULT_WEIGHTS),
-                       weights], sort_keys=True, default=str)
+                       weights] + ([files] if files else []), sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
@@ -235,6 +238,7 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
     if not (isinstance(every, int) and every >= 1):
         raise ValueError(f"every must be a positive integer, got {every!r}")
     cases = list(suite.cases[::every])[:n_cases]
+    planner_specs = {label: options_for(label, opts) for label, opts in planner_specs.items()}
     _init_worker(planner_specs, controller_path, config.refine)  # in this process: bad options fail before any case
     keys = {name: fingerprint(suite, name, opts, config, controller_path) for name, opts in planner_specs.items()}
     cache_path = Path(cache_path) if cache_path else None

@@ -280,8 +280,9 @@ def _seed_planner(label: str, options: dict | None, max_hops: int, lstm_weights,
 @functools.cache
 def _built_seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
     import planners
+    from .presets import options_for
 
-    name, options = planner_name(label), json.loads(options_json)
+    name, options = planner_name(label), options_for(label, json.loads(options_json))
     if name.startswith("lstm") and lstm_weights and "weights" not in options:
         options["weights"] = lstm_weights
     if name == "lstm":  # the model's modes, fed back, for as many steps as the optimization takes
@@ -328,7 +329,8 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
     past the target, and the step-map calls the seed's planner made (0 for ``cold``).
     ``name``: a seed, or ``NAME@VARIANT`` of one with ``options`` for its planner (e.g. ``lstm-guided@expert``
-    with another model and lazy, apex-conditioned sampling), so two settings of a seed can be compared.
+    with another model and lazy, apex-conditioned sampling), so two settings of a seed can be compared; a preset
+    label (planners/presets.py) with no options runs with the preset's.
     ``lstm_weights``: a checkpoint for the ``lstm`` seeds (default: the committed model) unless ``options``
     name one. ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample] more hops,
     the LSTM-guided search with sampling seed ``sample``). An ``lstm`` plan short of the target (the one-step mode

@@ -176,3 +176,35 @@ def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     keys = {evaluation.fingerprint(suite, label, opts, evaluation.EvalConfig(), None) for label, opts in specs.items()}
     assert len(keys) == 2
     assert "heuristic@noshift" in evaluation.table(results)
+
+
+def test_a_preset_label_runs_with_its_settings_unless_given_options():
+    from planners.presets import PRESETS
+
+    built = evaluation.make_planners({"lstm@ranked": {}, "lstm-guided@beyond": {}, "step@ranked": {},
+                                      "lstm@ranked-3": {}})
+    assert built["lstm@ranked"].ranker is not None and built["lstm@ranked"].max_steps == 1
+    assert built["lstm-guided@beyond"].lazy and built["lstm-guided@beyond"].conditioning == "apex"
+    assert built["lstm@ranked-3"].ranker is None  # not a preset: the planner's defaults
+    assert evaluation.make_planners({"lstm@ranked": {"max_steps": 2}})["lstm@ranked"].ranker is None  # replaced
+    suite = make_suite("ditch", seed=7, n_terrains=1)
+    results = evaluation.evaluate(suite, {"lstm@dagger": {}}, n_cases=1, progress=False,
+                                  config=evaluation.EvalConfig(backend="fast"))
+    explicit = evaluation.evaluate(suite, {"lstm@dagger": PRESETS["lstm@dagger"]}, n_cases=1, progress=False,
+                                   config=evaluation.EvalConfig(backend="fast"))
+    strip = lambda r: [[p["footholds"] for p in c["plans"]] for c in r["planners"]["lstm@dagger"]["cases"]]
+    assert strip(results) == strip(explicit)
+
+
+def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
+    """Retraining the ranker at the same path must not reuse cached cases (nor may the LSTM weights)."""
+    from planners.lstm_planner import RANKER_WEIGHTS
+
+    suite = make_suite("ditch", seed=7, n_terrains=1)
+    ranker = tmp_path / "ranker.pt"
+    ranker.write_bytes(RANKER_WEIGHTS.read_bytes())
+    key = lambda: evaluation.fingerprint(suite, "lstm@r", {"ranker": str(ranker)}, evaluation.EvalConfig(), None)
+    before = key()
+    assert key() == before
+    ranker.write_bytes(RANKER_WEIGHTS.read_bytes() + b"retrained")
+    assert key() != before

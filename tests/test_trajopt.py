@@ -154,6 +154,8 @@ def test_a_seed_variant_plans_with_its_options(flat_problem):
     options = {"weights": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
     planner = T._seed_planner("lstm-guided@expert", options, T.TrajoptConfig.max_hops, None, 0)
     assert planner.lazy and planner.conditioning == "apex"
+    preset = T._seed_planner("lstm-guided@expert", None, T.TrajoptConfig.max_hops, None, 0)  # planners/presets.py
+    assert preset.lazy and preset.conditioning == "apex" and preset.net.model.config == planner.net.model.config
     assert planner.net.model.config == load_model(EXPERT_WEIGHTS).config != load_model().config
     footholds, calls = T.seed_footholds("lstm-guided@expert", flat_problem, options=options)
     assert calls > 0 and np.all(np.diff(footholds) > 0) and footholds[-1] >= flat_problem.target_x
