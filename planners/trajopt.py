@@ -74,11 +74,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, Terrain, step, step_batch
+from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.fast_step import _rk4
 
 from .base import FootstepSequence, Plan, Planner, Problem
+from .evaluation import execute
 from .generic_slip import Dual, dual_constraint, generic
 from .registry import planner_name, register
 
@@ -361,13 +362,11 @@ def _requeried(planner, problem: Problem, footholds: np.ndarray, ode_calls: int,
     footholds = list(footholds)
     apex, done = problem.apex, 0
     while footholds[-1] < problem.target_x and len(footholds) < max_hops:
-        for x in footholds[done:]:  # the apex after the footholds not yet executed
-            hop = step(apex, _controller().leg_angle(apex, x, problem.terrain), problem.terrain, problem.params)
-            ode_calls += 1
-            if not hop.ok:
-                return np.array(footholds), ode_calls
-            apex = hop.next_apex
-        done = len(footholds)
+        hops = execute(apex, footholds[done:], _controller(), problem.terrain, problem.params, "fast")
+        ode_calls += len(hops.apexes) + (hops.failure is not None)  # every hop tried, the failed one too
+        if hops.failure is not None:
+            return np.array(footholds), ode_calls
+        apex, done = hops.apexes[-1], len(footholds)
         plan = planner.plan(apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             break
