@@ -518,21 +518,6 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
     return Guess(angles, falls, feet, durs, stance, apexes, fast_ok, fast_failure)
 
 
-def fast_check(apex, leg_angles, terrain: Terrain, params: SlipParams):
-    """Execute leg angles open loop on the fast step map: (ok, failure name, (n+1, 3) apexes reached)."""
-    out = [tuple(apex)]
-    a = np.asarray(apex, dtype=np.float64)
-    for theta in leg_angles:
-        if not abs(theta) < math.pi / 2:
-            return False, "BAD_ANGLE", np.array(out)
-        r = step_batch(a, [theta], terrain, params).result(0)
-        if not r.ok:
-            return False, r.failure.name, np.array(out)
-        a = np.array(r.next_apex)
-        out.append(tuple(a))
-    return True, "", np.array(out)
-
-
 # ---- the program -------------------------------------------------------------------------------------------
 
 @dataclass

@@ -60,3 +60,23 @@ def test_stepped_cases_land_on_another_level():
     for apex, angle, terrain in CASES[3:5]:
         result = ds.step(apex, angle, terrain, PARAMS)
         assert terrain.height_at(result.touchdown_x) != terrain.height_at(apex[0])
+
+
+def test_energy_is_constant_along_the_drake_trajectory_in_flight_and_stance():
+    """Between apexes too: the shared definition of the energy (spring included) is constant at every logged
+    sample of a three-hop Drake run, so the stance equations and the reset maps agree with it."""
+    from drakeslip.dynamics import mechanical_energy
+    from drakeslip.hopper import Mode
+    from drakeslip.simulate import simulate
+
+    sim = simulate((0.0, 0.6, 2.0), [0.25, 0.28, 0.22], ds.Terrain.flat(), PARAMS)
+    assert sim.ok and len(sim.apexes) == 3, sim.failure
+    p = PARAMS.as_array()
+    energies, in_stance = [], []
+    for (x, z, xdot, zdot), h in zip(sim.states, sim.hybrid):
+        stance = int(h[0]) == Mode.STANCE
+        energies.append(mechanical_energy(x, z, xdot, zdot, h[3], h[4], stance, p))
+        in_stance.append(stance)
+    energies = np.array(energies)
+    assert sum(in_stance) > 10 and len(in_stance) - sum(in_stance) > 10  # both phases were logged
+    assert np.ptp(energies) <= 1e-6 * energies[0], np.ptp(energies)
