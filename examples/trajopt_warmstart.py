@@ -18,7 +18,9 @@ window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/
 angles are simulated open loop on the Drake hybrid simulator on the true terrain. ``verified`` = the solver
 converged and Drake completes all N hops with no failure, past the target. Finished cases are cached in
 OUT.cases.jsonl (keyed by the source and weights of drakeslip and planners, the settings and the LSTM checkpoint),
-so a killed run continues where it stopped (--no-resume starts over).
+so a killed run continues where it stopped (--no-resume starts over). --jobs N solves N (seed, case) pairs at a
+time in separate processes, with the same records as one process (solve times are wall-clock: keep N at most the
+number of cores).
 """
 from __future__ import annotations
 
@@ -44,6 +46,7 @@ from planners.suite import load_suite
 from planners.trajopt import SEEDS, TrajoptConfig, check_seed, make_problem, optimize
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
+
 
 
 def source_digest() -> str:
@@ -121,6 +124,8 @@ def main(argv=None):
     ap.add_argument("--solver", default="snopt", choices=("snopt", "ipopt"))
     ap.add_argument("--lstm-weights", default=None,
                     help="checkpoint for the lstm and lstm-guided seeds (default: the committed one)")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="solver processes (default 1; solve times are wall-clock, so keep it at most the cores)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
@@ -129,8 +134,8 @@ def main(argv=None):
     seeds = [s for s in args.seeds.split(",") if s]
     if not seeds:
         ap.error(f"--seeds names no seed; known seeds: {', '.join(SEEDS)}")
-    if args.every < 1 or (args.cases is not None and args.cases < 1):
-        ap.error("--every and --cases must be positive")
+    if args.every < 1 or (args.cases is not None and args.cases < 1) or args.jobs < 1:
+        ap.error(f"--every, --cases and --jobs must be positive, got {args.every}, {args.cases}, {args.jobs}")
     try:
         config = TrajoptConfig(knots=args.knots, collocation=args.collocation, max_hops=args.max_hops,
                                solver=args.solver, lstm_weights=args.lstm_weights, starts=args.starts)
@@ -166,22 +171,33 @@ def main(argv=None):
 
     from tqdm import tqdm
 
-    done = {s: [] for s in seeds}
-    bar = tqdm(total=len(cases) * len(seeds), disable=args.quiet, unit="solve", desc=suite.name)
+    problems = [make_problem(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params) for case in cases]
+    records = {(s, i): cache[key(s, case)] for i, case in enumerate(cases) for s in seeds if key(s, case) in cache}
+    # case-major: every seed sees the same cases at any point of a partial run
+    todo = [(s, i) for i in range(len(cases)) for s in seeds if (s, i) not in records]
+    call = lambda s, i: ((problems[i], s, config), {"true_terrain": cases[i].terrain, "seed_options": options.get(s)})
+    bar = tqdm(total=len(cases) * len(seeds), initial=len(records), disable=args.quiet, unit="solve", desc=suite.name)
     with open(cache_path, "a") as sink:
-        for case in cases:  # case-major: every seed sees the same cases at any point of a partial run
-            problem = make_problem(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params)
-            for seed in seeds:
-                k = key(seed, case)
-                record = cache.get(k)
-                if record is None:
-                    record = {"id": case.id, **optimize(problem, seed, config, true_terrain=case.terrain,
-                                                        seed_options=options.get(seed))}
-                    append_jsonl(sink, {"key": k, "record": record})
-                done[seed].append(record)
-                bar.update(1)
-                bar.set_postfix({s: f"{sum(r['verified'] for r in d)}/{len(d)}" for s, d in done.items()})
+        def finish(s, i, result):
+            records[(s, i)] = {"id": cases[i].id, **result}
+            append_jsonl(sink, {"key": key(s, cases[i]), "record": records[(s, i)]})
+            bar.update(1)
+            bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
+
+        if args.jobs == 1:
+            for s, i in todo:
+                positional, keywords = call(s, i)
+                finish(s, i, optimize(*positional, **keywords))
+        else:  # spawned, not forked: torch and numba are not fork-safe
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            with ProcessPoolExecutor(args.jobs, mp_context=mp.get_context("spawn")) as pool:
+                futures = {pool.submit(optimize, *call(s, i)[0], **call(s, i)[1]): (s, i) for s, i in todo}
+                for f in as_completed(futures):
+                    finish(*futures[f], f.result())
     bar.close()
+    done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
                "every": args.every, "config": asdict(config), "options": options,
                "seeds": {s: summarize(done[s]) for s in seeds}}

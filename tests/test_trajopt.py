@@ -315,3 +315,35 @@ def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
     bad = subprocess.run(cmd[:-5] + ["--starts", "9", "--out", str(out)], capture_output=True, text=True,
                          cwd=root, timeout=120)
     assert bad.returncode == 2 and "starts must be an integer in 1..5, got 9" in bad.stderr
+
+
+def test_warmstart_example_in_two_processes_gives_the_serial_records(tmp_path):
+    """--jobs 2 solves the (seed, case) pairs in spawned processes: every record (iterations, verdict, leg
+    angles) is the one the serial run gives, and the cache holds each pair once."""
+    import json
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    from drakeslip import ApexState
+    from planners.suite import Case, Suite, save_suite
+
+    root = Path(__file__).resolve().parents[1]
+    suite_path = tmp_path / "flat.json"
+    cases = (Case("flat-v2", Terrain.flat(), ApexState(-1.0, 1.0, 2.0)),
+             Case("flat-v1.5", Terrain.flat(), ApexState(-1.0, 0.9, 1.5)))
+    save_suite(Suite("flat", 1.5, 0.8, cases), suite_path)
+    blocks = {}
+    for jobs in (1, 2):
+        out = tmp_path / f"out{jobs}.json"
+        run = subprocess.run([sys.executable, str(root / "examples" / "trajopt_warmstart.py"), "--suite",
+                              str(suite_path), "--seeds", "cold,heuristic", "--jobs", str(jobs), "--out", str(out),
+                              "--quiet"], capture_output=True, text=True, cwd=root, timeout=300)
+        assert run.returncode == 0, run.stderr
+        blocks[jobs] = json.loads(out.read_text())["seeds"]
+        assert len(Path(str(out) + ".cases.jsonl").read_text().splitlines()) == 4
+    for seed in ("cold", "heuristic"):
+        for serial, parallel in zip(blocks[1][seed]["cases"], blocks[2][seed]["cases"]):
+            assert serial["id"] == parallel["id"]
+            for field in ("converged", "verified", "iterations", "leg_angles", "seed_footholds"):
+                assert serial[field] == parallel[field], (seed, serial["id"], field)
