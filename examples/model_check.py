@@ -7,7 +7,8 @@ For each case the oracle searches the apex states reachable over a grid of leg a
 to confirm a "not-traversable"), merging apexes within 1 cm / 1 cm/s, with the whole terrain known, and
 executes any witness on Drake (see verification/model_check.py for what the verdicts mean exactly). Each
 finished case is appended to OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume starts
-over); a cached "unknown" is rerun when the budget is larger than the one it had.
+over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases at a
+time in separate processes.
 """
 from __future__ import annotations
 
@@ -41,11 +42,16 @@ def main(argv=None):
     ap.add_argument("--against", default=None,
                     help="comma-separated results JSON files of examples/evaluate.py on the same suite: report "
                          "the cases a planner crossed that the oracle calls not traversable (exit 1 if any)")
+    ap.add_argument("--jobs", type=int, default=1,
+                    help="cases checked at a time, each in its own process (--seconds is wall-clock per case, so "
+                         "keep it at most the cores)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     args = ap.parse_args(argv)
     print("reproduce with: python3 " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
+    if args.jobs < 1:
+        ap.error(f"--jobs must be positive, got {args.jobs}")
     try:
         budget = Budget(args.budget, args.seconds)
     except ValueError as exc:
@@ -63,7 +69,7 @@ def main(argv=None):
     if args.no_resume and cache.exists():
         cache.unlink()
     results = check_suite(suite, cases, cache, budget, levels=(COARSE,) if args.no_refine else LEVELS,
-                          drake_check=not args.no_drake_check, progress=not args.quiet)
+                          drake_check=not args.no_drake_check, progress=not args.quiet, jobs=args.jobs)
     write_json(results, args.out)
 
     s = results["summary"]

@@ -130,11 +130,21 @@ def test_cli_writes_the_results_format_and_resumes(tmp_path, monkeypatch):
     assert again["cases"] == results["cases"]
 
 
+def test_two_processes_give_the_verdicts_of_one():
+    suite = make_suite("ditch", 7, 1, speeds=(1.5, 2.5), heights=(0.9,))
+    runs = [mc.check_suite(suite, list(suite.cases), None, Budget(20000, 60.0), progress=False, jobs=jobs)
+            for jobs in (1, 2)]
+    untimed = lambda d: {k: v for k, v in d.items() if k != "time_s"}
+    strip = lambda r: [{**untimed(c), "passes": [untimed(p) for p in c["passes"]]} for c in r["cases"]]
+    assert len(runs[0]["cases"]) == 2 and strip(runs[0]) == strip(runs[1])
+
+
 @pytest.mark.parametrize("args, message", [
     (["--budget", "0"], "max_nodes must be a positive integer, got 0"),
     (["--seconds", "nan"], "max_time_s must be a positive number of seconds, got nan"),
     (["--ids", "nope"], "unknown case id"),
     (["--cases", "-3"], "number of cases must be a positive integer, got -3"),
+    (["--jobs", "0"], "--jobs must be positive, got 0"),
     (["--suite-edit"], r"cases\[0\]\.apex.*'z'"),
 ])
 def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message, example):

@@ -387,9 +387,10 @@ def summarize(records: list) -> dict:
 
 def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
                 levels=LEVELS, min_speed: float = MIN_SPEED, drake_check: bool = True,
-                max_witnesses: int = MAX_WITNESSES, progress: bool = True) -> dict:
-    """Run the oracle on ``cases`` of ``suite``. Each finished case is appended to ``cache_path`` (JSON lines)
-    and reused by a later run with the same settings; a cached ``unknown`` is rerun when the budget grew."""
+                max_witnesses: int = MAX_WITNESSES, progress: bool = True, jobs: int = 1) -> dict:
+    """Run the oracle on ``cases`` of ``suite``, in ``jobs`` processes. Each finished case is appended to
+    ``cache_path`` (JSON lines) and reused by a later run with the same settings; a cached ``unknown`` is rerun
+    when the budget grew. The time budget is wall-clock per case, so ``jobs`` should not exceed the cores."""
     from tqdm import tqdm
 
     config = _config(levels, min_speed, drake_check, max_witnesses)
@@ -405,18 +406,30 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
             records[c.id] = {**hit, "id": c.id}
         else:
             todo.append((key, c))
+    arguments = lambda c: (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check,
+                           max_witnesses)
     bar = tqdm(total=len(todo), desc=f"model check {suite.name}", unit="case", disable=not progress)
     sink = open(cache_path, "a") if cache_path else None
     try:
-        for key, c in todo:
-            record = {"id": c.id, **model_check(c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed,
-                                                drake_check, max_witnesses), "budget": asdict(budget)}
-            records[c.id] = record
+        def finish(key, c, result):
+            records[c.id] = {"id": c.id, **result, "budget": asdict(budget)}
             if sink:
-                append_jsonl(sink, {"key": key, "result": record})
+                append_jsonl(sink, {"key": key, "result": records[c.id]})
             bar.update(1)
             s = summarize(list(records.values()))
             bar.set_postfix(T=s["traversable"], N=s["not_traversable"], U=s["unknown"])
+
+        if jobs <= 1:
+            for key, c in todo:
+                finish(key, c, model_check(*arguments(c)))
+        else:  # spawned, not forked: numba and torch are not fork-safe
+            import multiprocessing as mp
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            with ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn")) as pool:
+                futures = {pool.submit(model_check, *arguments(c)): (key, c) for key, c in todo}
+                for f in as_completed(futures):
+                    finish(*futures[f], f.result())
     finally:
         bar.close()
         if sink:
