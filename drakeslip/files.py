@@ -50,6 +50,20 @@ def read_jsonl_cache(path, key_of, value_of) -> dict:
     return cache
 
 
+def open_jsonl_cache(path):
+    """Open a JSON-lines cache for appending, creating its folder. A last line cut short by a kill is ended
+    first, so the next entry starts a line of its own instead of being lost with the fragment."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    sink = open(path, "a")
+    if sink.tell() > 0:
+        with open(path, "rb") as f:
+            f.seek(-1, os.SEEK_END)
+            if f.read(1) != b"\n":
+                sink.write("\n")
+    return sink
+
+
 def append_jsonl(sink, entry) -> None:
     """Append one entry to an open JSON-lines cache and make it durable before going on."""
     sink.write(json.dumps(entry) + "\n")

@@ -39,7 +39,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from drakeslip import SlipParams
-from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
+from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
 from planners.evaluation import perceived
 from planners.registry import label_options
 from planners.suite import load_suite
@@ -177,7 +177,7 @@ def main(argv=None):
     todo = [(s, i) for i in range(len(cases)) for s in seeds if (s, i) not in records]
     call = lambda s, i: ((problems[i], s, config), {"true_terrain": cases[i].terrain, "seed_options": options.get(s)})
     bar = tqdm(total=len(cases) * len(seeds), initial=len(records), disable=args.quiet, unit="solve", desc=suite.name)
-    with open(cache_path, "a") as sink:
+    with open_jsonl_cache(cache_path) as sink:
         def finish(s, i, result):
             records[(s, i)] = {"id": cases[i].id, **result}
             append_jsonl(sink, {"key": key(s, cases[i]), "record": records[(s, i)]})

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
-from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
+from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
 
 from .presets import options_for
 from .registry import make, planner_name, takes
@@ -253,9 +253,7 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
             else:
                 todo.append((name, c))
     bar = tqdm(total=len(todo), desc=f"{suite.name}", disable=not progress, unit="case")
-    if cache_path:
-        Path(cache_path).parent.mkdir(parents=True, exist_ok=True)
-    sink = open(cache_path, "a") if cache_path else None
+    sink = open_jsonl_cache(cache_path) if cache_path else None
     try:
         def finish(name, result):
             done[name][result["id"]] = result

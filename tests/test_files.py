@@ -24,3 +24,15 @@ def test_jsonl_cache_skips_a_line_cut_short_by_a_kill(tmp_path):
         sink.write('{"key": "c", "res')             # killed mid-write
     assert read_jsonl_cache(path, lambda e: e["key"], lambda e: e["result"]) == {"a": 1}
     assert read_jsonl_cache(tmp_path / "none.jsonl", lambda e: e, lambda e: e) == {}
+
+
+def test_an_entry_appended_after_a_cut_short_line_is_kept(tmp_path):
+    from drakeslip.files import append_jsonl, open_jsonl_cache, read_jsonl_cache
+
+    path = tmp_path / "new" / "cache.jsonl"                 # the folder is created
+    with open_jsonl_cache(path) as sink:
+        append_jsonl(sink, {"key": "a", "result": 1})
+        sink.write('{"key": "c", "res')                      # killed mid-write
+    with open_jsonl_cache(path) as sink:                     # the resumed job
+        append_jsonl(sink, {"key": "d", "result": 4})
+    assert read_jsonl_cache(path, lambda e: e["key"], lambda e: e["result"]) == {"a": 1, "d": 4}

@@ -60,7 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.files import append_jsonl, atomic_write, read_jsonl_cache
+from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
 from planners.base import Budget
 from planners.search import clear_of_edges
 from planners.suite import Case, Suite
@@ -409,7 +409,7 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
     arguments = lambda c: (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check,
                            max_witnesses)
     bar = tqdm(total=len(todo), desc=f"model check {suite.name}", unit="case", disable=not progress)
-    sink = open(cache_path, "a") if cache_path else None
+    sink = open_jsonl_cache(cache_path) if cache_path else None
     try:
         def finish(key, c, result):
             records[c.id] = {"id": c.id, **result, "budget": asdict(budget)}
