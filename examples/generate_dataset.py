@@ -20,23 +20,18 @@ import argparse
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
+from drakeslip.pool import results_of  # noqa: E402
 from planners.dataset import (DatasetConfig, count_sequences, pending_shards, write_manifest,  # noqa: E402
                               write_shard)
 
 
 def run_local(cfg, shards, out, jobs):
-    if jobs <= 1:
-        for k in shards:
-            yield write_shard(cfg, k, out)
-        return
-    with ProcessPoolExecutor(max_workers=jobs) as pool:
-        for future in as_completed([pool.submit(write_shard, cfg, k, out) for k in shards]):
-            yield future.result()
+    for _, result in results_of(write_shard, [(k, (cfg, k, out)) for k in shards], jobs):
+        yield result
 
 
 def run_ray(cfg, shards, out, address):

@@ -15,11 +15,9 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import os
 import sys
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import numpy as np
@@ -27,6 +25,7 @@ from tqdm import tqdm
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 from drakeslip.files import atomic_write, read_json  # noqa: E402
+from drakeslip.pool import results_of  # noqa: E402
 from planners.foothold_ranker import save_ranker  # noqa: E402
 from planners.lstm_planner import EXPERT_WEIGHTS  # noqa: E402
 from planners.ranker_train import RankerTrainConfig, collect, train  # noqa: E402
@@ -38,17 +37,6 @@ def write_shard(path, family, seed, n_terrains, weights, ranker, record_k, top_k
     with atomic_write(path) as f:
         np.savez(f, features=features, rooms=rooms)
     return path, len(rooms)
-
-
-def run(jobs, n_workers):
-    """write_shard over ``jobs``, in this process when ``n_workers`` is 1."""
-    if n_workers == 1:
-        yield from (write_shard(*job) for job in jobs)
-        return
-    # spawned, not forked: a child forked after this process trained with torch's thread pool can deadlock
-    with ProcessPoolExecutor(n_workers, multiprocessing.get_context("spawn")) as pool:
-        for future in as_completed([pool.submit(write_shard, *job) for job in jobs]):
-            yield future.result()
 
 
 def load_shards(paths):
@@ -138,7 +126,7 @@ def main(argv=None):
                                  ranker, args.record_k, args.top_k, explore))
         t0, states = time.time(), 0
         with tqdm(total=len(todo), unit="shard", desc=f"round {r}") as bar:
-            for _, n in run(todo, args.jobs):
+            for _, (_, n) in results_of(write_shard, [(job[0], job) for job in todo], args.jobs):
                 states += n
                 bar.update()
         if todo:

@@ -40,13 +40,13 @@ from pathlib import Path
 
 from drakeslip import SlipParams
 from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
+from drakeslip.pool import results_of
 from planners.evaluation import perceived
 from planners.registry import label_options
 from planners.suite import load_suite
 from planners.trajopt import SEEDS, TrajoptConfig, check_seed, make_problem, optimize
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
-
 
 
 def source_digest() -> str:
@@ -175,27 +175,15 @@ def main(argv=None):
     records = {(s, i): cache[key(s, case)] for i, case in enumerate(cases) for s in seeds if key(s, case) in cache}
     # case-major: every seed sees the same cases at any point of a partial run
     todo = [(s, i) for i in range(len(cases)) for s in seeds if (s, i) not in records]
-    call = lambda s, i: ((problems[i], s, config), {"true_terrain": cases[i].terrain, "seed_options": options.get(s)})
+    tasks = [((s, i), (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
+             for s, i in todo]
     bar = tqdm(total=len(cases) * len(seeds), initial=len(records), disable=args.quiet, unit="solve", desc=suite.name)
     with open_jsonl_cache(cache_path) as sink:
-        def finish(s, i, result):
+        for (s, i), result in results_of(optimize, tasks, args.jobs):
             records[(s, i)] = {"id": cases[i].id, **result}
             append_jsonl(sink, {"key": key(s, cases[i]), "record": records[(s, i)]})
             bar.update(1)
             bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
-
-        if args.jobs == 1:
-            for s, i in todo:
-                positional, keywords = call(s, i)
-                finish(s, i, optimize(*positional, **keywords))
-        else:  # spawned, not forked: torch and numba are not fork-safe
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            with ProcessPoolExecutor(args.jobs, mp_context=mp.get_context("spawn")) as pool:
-                futures = {pool.submit(optimize, *call(s, i)[0], **call(s, i)[1]): (s, i) for s, i in todo}
-                for f in as_completed(futures):
-                    finish(*futures[f], f.result())
     bar.close()
     done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),

@@ -7,15 +7,14 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import os
 import statistics
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
 from pathlib import Path
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
 from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
+from drakeslip.pool import results_of
 
 from .presets import options_for
 from .registry import make, planner_name, takes
@@ -199,9 +198,8 @@ def _run_task(label: str, case_dict: dict, goal_x: float, friction: float, confi
 
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "task", "goal_x": goal_x,
                              "friction": friction, "cases": [case_dict]})
-    result = run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x,
-                      SlipParams(friction=friction), config)
-    return label, result
+    return run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x,
+                    SlipParams(friction=friction), config)
 
 
 def _digest(path) -> str:
@@ -255,28 +253,15 @@ def evaluate(suite: Suite, planner_specs: dict, n_cases: int | None = None, jobs
     bar = tqdm(total=len(todo), desc=f"{suite.name}", disable=not progress, unit="case")
     sink = open_jsonl_cache(cache_path) if cache_path else None
     try:
-        def finish(name, result):
+        payload = lambda c: {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}
+        tasks = [(name, (name, payload(c), suite.goal_x, suite.friction, config)) for name, c in todo]
+        for name, result in results_of(_run_task, tasks, jobs, _init_worker,
+                                       (planner_specs, controller_path, config.refine)):
             done[name][result["id"]] = result
             if sink:
                 append_jsonl(sink, {"key": keys[name], "result": result})
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
-
-        payload = lambda c: {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}
-        if jobs <= 1:
-            for name, c in todo:
-                finish(*_run_task(name, payload(c), suite.goal_x, suite.friction, config))
-        else:
-            import multiprocessing as mp
-
-            for var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
-                os.environ.setdefault(var, "1")  # one process per core: no BLAS/OpenMP thread spinning
-            with ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn"), initializer=_init_worker,
-                                     initargs=(planner_specs, controller_path, config.refine)) as pool:
-                futures = [pool.submit(_run_task, name, payload(c), suite.goal_x, suite.friction, config)
-                           for name, c in todo]
-                for f in as_completed(futures):
-                    finish(*f.result())
     finally:
         bar.close()
         if sink:

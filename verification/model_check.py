@@ -61,6 +61,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
+from drakeslip.pool import results_of
 from planners.base import Budget
 from planners.search import clear_of_edges
 from planners.suite import Case, Suite
@@ -411,25 +412,13 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
     bar = tqdm(total=len(todo), desc=f"model check {suite.name}", unit="case", disable=not progress)
     sink = open_jsonl_cache(cache_path) if cache_path else None
     try:
-        def finish(key, c, result):
+        for (key, c), result in results_of(model_check, [((key, c), arguments(c)) for key, c in todo], jobs):
             records[c.id] = {"id": c.id, **result, "budget": asdict(budget)}
             if sink:
                 append_jsonl(sink, {"key": key, "result": records[c.id]})
             bar.update(1)
             s = summarize(list(records.values()))
             bar.set_postfix(T=s["traversable"], N=s["not_traversable"], U=s["unknown"])
-
-        if jobs <= 1:
-            for key, c in todo:
-                finish(key, c, model_check(*arguments(c)))
-        else:  # spawned, not forked: numba and torch are not fork-safe
-            import multiprocessing as mp
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            with ProcessPoolExecutor(jobs, mp_context=mp.get_context("spawn")) as pool:
-                futures = {pool.submit(model_check, *arguments(c)): (key, c) for key, c in todo}
-                for f in as_completed(futures):
-                    finish(*futures[f], f.result())
     finally:
         bar.close()
         if sink:
