@@ -210,7 +210,7 @@ def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, c
     """Identifies a (suite, planner, options, weights) run, so cached cases are reused only for the same setup:
     retraining the controller, the LSTM or another weights file an option names (the ranker) invalidates them."""
     weights = None
-    if takes(planner_name(planner), "weights"):
+    if planner_name(planner) in ("lstm", "lstm-guided"):  # their checkpoint (Angle- and Step-space: cost weights)
         from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
 
         weights = _digest(options.get("weights") or LSTM_WEIGHTS)

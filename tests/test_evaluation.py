@@ -208,3 +208,10 @@ def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
     assert key() == before
     ranker.write_bytes(RANKER_WEIGHTS.read_bytes() + b"retrained")
     assert key() != before
+
+
+def test_cost_weights_given_as_options_are_part_of_the_cache_key():
+    """Angle- and Step-space take ``weights`` as cost weights, not a checkpoint file: a list is keyed as given."""
+    suite = make_suite("ditch", seed=7, n_terrains=1)
+    key = lambda w: evaluation.fingerprint(suite, "step@w", {"weights": w}, evaluation.EvalConfig(), None)
+    assert key([1, 0, 2]) == key([1, 0, 2]) != key([1, 1, 2])
