@@ -11,7 +11,7 @@ from .lstm_inference import softmax
 from .lstm_inputs import encode_window
 from .lstm_planner import FootstepDistribution, load_model
 from .registry import register
-from .search import Children, best_first
+from .search import Children, CostWeights, best_first
 from .step_space import StepSpacePlanner
 
 
@@ -71,7 +71,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     """Step-space search whose children are ``branching`` footholds sampled from the LSTM given the path to
     the node (temperature ``temperature`` widens the distribution for sampling); a search that finds nothing
     is retried with each ``fallback`` branching (the paper: 3, then 5). Every child still goes through the
-    controller and the fast step map, so the plan is one the controller can hit.
+    controller and the fast step map, so the plan is one the controller can hit. ``weights`` is the LSTM
+    checkpoint; ``cost_weights`` the node cost's (Step-space's ``weights``).
 
     Beyond the paper, progressive widening: a node whose sampled children all fail draws the next
     ``branching`` instead of dying, and a node with candidates left returns to the queue, so the search comes
@@ -82,8 +83,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
     def __init__(self, weights=None, branching: int = 3, fallback: tuple = (5,), temperature: float = 1.0,
                  mask_ditches: bool = True, seed: int = 0, lazy: bool = False, conditioning: str = "path",
-                 **options):
-        super().__init__(**options)
+                 cost_weights: CostWeights | tuple = CostWeights(), **options):
+        super().__init__(weights=cost_weights, **options)  # ``weights`` here is the LSTM checkpoint
         for b in (branching, *fallback):
             if not (isinstance(b, int) and b >= 1):
                 raise ValueError(f"branching factors must be positive integers, got {b!r}")

@@ -273,3 +273,17 @@ def test_learned_planners_with_the_committed_weights():
     assert np.all(np.diff(lstm.footholds) > 0)
     assert np.all(clear_of_edges(terrain, lstm.footholds, 0.02))
     assert abs(lstm.leg_angles[0]) < math.atan(params.friction)
+
+
+def test_lstm_guided_takes_cost_weights_beside_its_checkpoint():
+    """``weights`` names the LSTM checkpoint; the node cost's weights are ``cost_weights``, as Step-space's."""
+    import planners
+    from planners.lstm_planner import DEFAULT_WEIGHTS
+    from planners.search import CostWeights
+
+    guided = planners.make("lstm-guided", weights=str(DEFAULT_WEIGHTS), cost_weights=(1, 0, 2))
+    assert guided.weights == CostWeights(1, 0, 2)
+    assert planners.make("lstm-guided").weights == planners.make("step").weights
+    terrain, apex = ds.Terrain.flat(), (0.0, 0.9, 2.0)
+    plan = guided.plan(apex, terrain, 4.0, ds.SlipParams(friction=0.8))
+    assert plan.success, plan.message
