@@ -6,9 +6,9 @@ import os
 
 def results_of(fn, tasks, jobs: int = 1, initializer=None, initargs=()):
     """Yield ``(tag, fn(*args))`` for each ``(tag, args)`` of ``tasks``: in order in this process when ``jobs``
-    is 1 or less, else as each finishes in ``jobs`` spawned processes, each first running ``initializer(*initargs)``
-    (in this process the caller sets up what it sets up). Spawned, not forked: a child forked from a process
-    whose torch or numba threads are running can deadlock. Workers run one BLAS/OpenMP thread each."""
+    is 1 or less, else as each finishes in ``jobs`` spawned processes. ``initializer(*initargs)`` runs first in
+    each worker, never in this process (the caller sets up its own). Spawned, not forked: a child forked from a
+    process whose torch or numba threads are running can deadlock. Workers run one BLAS/OpenMP thread each."""
     if jobs <= 1:
         for tag, args in tasks:
             yield tag, fn(*args)
