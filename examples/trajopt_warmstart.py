@@ -172,7 +172,8 @@ def main(argv=None):
     from tqdm import tqdm
 
     problems = [make_problem(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params) for case in cases]
-    records = {(s, i): cache[key(s, case)] for i, case in enumerate(cases) for s in seeds if key(s, case) in cache}
+    keys = {(s, i): key(s, case) for i, case in enumerate(cases) for s in seeds}
+    records = {pair: cache[k] for pair, k in keys.items() if k in cache}
     # case-major: every seed sees the same cases at any point of a partial run
     todo = [(s, i) for i in range(len(cases)) for s in seeds if (s, i) not in records]
     tasks = [((s, i), (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
@@ -181,7 +182,7 @@ def main(argv=None):
     with open_jsonl_cache(cache_path) as sink:
         for (s, i), result in results_of(optimize, tasks, args.jobs):
             records[(s, i)] = {"id": cases[i].id, **result}
-            append_jsonl(sink, {"key": key(s, cases[i]), "record": records[(s, i)]})
+            append_jsonl(sink, {"key": keys[(s, i)], "record": records[(s, i)]})
             bar.update(1)
             bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
     bar.close()

@@ -81,6 +81,7 @@ from drakeslip.fast_step import _rk4
 from .base import FootstepSequence, Plan, Planner, Problem
 from .evaluation import execute
 from .generic_slip import Dual, dual_constraint, generic
+from .presets import options_for
 from .registry import planner_name, register
 
 SEEDS = ("cold", "heuristic", "step", "lstm", "lstm-guided")
@@ -281,7 +282,6 @@ def _seed_planner(label: str, options: dict | None, max_hops: int, lstm_weights,
 @functools.cache
 def _built_seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
     import planners
-    from .presets import options_for
 
     name, options = planner_name(label), options_for(label, json.loads(options_json))
     if name.startswith("lstm") and lstm_weights and "weights" not in options:
