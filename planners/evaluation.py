@@ -208,16 +208,29 @@ def _digest(path) -> str:
 
 def fingerprint(suite: Suite, planner: str, options: dict, config: EvalConfig, controller_path) -> str:
     """Identifies a (suite, planner, options, weights) run, so cached cases are reused only for the same setup:
-    retraining the controller, the LSTM or another weights file an option names (the ranker) invalidates them."""
-    weights = None
-    if planner_name(planner) in ("lstm", "lstm-guided"):  # their checkpoint (Angle- and Step-space: cost weights)
-        from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
-
-        weights = _digest(options.get("weights") or LSTM_WEIGHTS)
-    files = {k: _digest(v) for k, v in options.items() if k != "weights" and isinstance(v, str) and Path(v).is_file()}
+    retraining the controller, the LSTM or another weights file an option names (the ranker), or the one a
+    trajopt seed's planner reads, invalidates them."""
+    weights, files = _files_read(planner, options)
     blob = json.dumps([suite.to_dict(), planner, options, config.__dict__, _digest(controller_path or DEFAULT_WEIGHTS),
                        weights] + ([files] if files else []), sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def _files_read(planner: str, options: dict, lstm_weights=None):
+    """Digests of the files a planner built with these options reads: its LSTM checkpoint (lstm and lstm-guided;
+    Angle- and Step-space's ``weights`` are cost weights) and every other option naming a file; for trajopt,
+    also its seed planner's (the seed's preset or ``seed_options``, the config's ``lstm_weights``)."""
+    name, weights = planner_name(planner), None
+    if name in ("lstm", "lstm-guided"):
+        from .lstm_planner import DEFAULT_WEIGHTS as LSTM_WEIGHTS
+
+        weights = _digest(options.get("weights") or lstm_weights or LSTM_WEIGHTS)
+    files = {k: _digest(v) for k, v in options.items() if k != "weights" and isinstance(v, str) and Path(v).is_file()}
+    if name == "trajopt":
+        seed = options.get("seed", "step")
+        files["seed"] = _files_read(seed, options_for(seed, options.get("seed_options")),
+                                    getattr(options.get("config"), "lstm_weights", None))
+    return weights, files
 
 
 def load_cache(path: Path) -> dict:

@@ -210,6 +210,23 @@ def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
     assert key() != before
 
 
+def test_the_cache_key_follows_the_checkpoint_a_trajopt_seed_reads(tmp_path):
+    """The trajectory optimizer as a planner reads its seed planner's LSTM: retraining it invalidates cached cases."""
+    from planners.lstm_planner import DEFAULT_WEIGHTS
+
+    suite = make_suite("ditch", seed=7, n_terrains=1)
+    lstm = tmp_path / "lstm.pt"
+    lstm.write_bytes(DEFAULT_WEIGHTS.read_bytes())
+    options = {"seed": "lstm-guided@x", "seed_options": {"weights": str(lstm)}}
+    key = lambda: evaluation.fingerprint(suite, "trajopt", options, evaluation.EvalConfig(), None)
+    before = key()
+    assert key() == before
+    lstm.write_bytes(DEFAULT_WEIGHTS.read_bytes() + b"retrained")
+    assert key() != before
+    step_seed = lambda: evaluation.fingerprint(suite, "trajopt", {"seed": "step"}, evaluation.EvalConfig(), None)
+    assert step_seed() == step_seed() != before
+
+
 def test_cost_weights_given_as_options_are_part_of_the_cache_key():
     """Angle- and Step-space take ``weights`` as cost weights, not a checkpoint file: a list is keyed as given."""
     suite = make_suite("ditch", seed=7, n_terrains=1)
