@@ -61,11 +61,8 @@ class StepSpacePlanner(Planner):
         if given. The planner itself asks for the full reach: hops that would land past the perception window
         are simulated too, to tell a sequence that has gone as far as the robot can see (see best_first)."""
         x, z, v = apex
-        limit = FRICTION_MARGIN * math.atan(params.friction)
-        drop = z - terrain.height_at(x)
-        L0, g = params.leg_length, params.gravity
-        reach = [L0 * math.sin(a) + v * math.sqrt(2 * max(drop - L0 * math.cos(a), 0.0) / g) for a in (-limit, limit)]
-        lo, hi = x + reach[0] - 0.3, min(x + reach[1] + 0.3, math.inf if until is None else until)
+        lo, hi = touchdown_range(x, z, v, terrain, params)
+        lo, hi = lo - 0.3, min(hi + 0.3, math.inf if until is None else until)
         spacing = spacing or terrain.cell / 4
         first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
         return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
@@ -138,3 +135,28 @@ class StepSpacePlanner(Planner):
         self.controller.check_params(problem.params)
         return run_attempts(self, problem, [(f"grid {s or problem.terrain.cell / 4:g} m",
                                              lambda s=s: self._search(problem, s)) for s in self.spacings])
+
+
+REACH_ANGLES = np.linspace(-1.0, 1.0, 41)  # fractions of the friction-cone limit at which the reach is evaluated
+
+
+def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:
+    """Bounds on where a flight from apex (x, z, v) can touch down on solid ground with a leg angle inside the
+    friction cone. The foot, L0 sin(a) ahead of the body, meets ground of height h when the body has fallen to
+    h + L0 cos(a): touchdown at x + L0 sin(a) + v sqrt(2 (z - h - L0 cos(a)) / g). That is not monotone in
+    a (a leg near vertical lands soonest) and it depends on the height of the ground it lands on, not the one
+    under the apex (over a ditch that would be the ditch floor), so the bounds take every angle of a grid and
+    the highest and lowest solid cell the foot could reach."""
+    L0, g = params.leg_length, params.gravity
+    angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
+    solid = terrain.heights[terrain.heights > terrain.ditch_height]
+    if solid.size == 0:
+        solid = terrain.heights
+    far = x + L0 + v * math.sqrt(2 * max(z - float(solid.min()), 0.0) / g)
+    cells = terrain.heights[terrain.index(x - L0):terrain.index(far) + 1]
+    cells = cells[cells > terrain.ditch_height]
+    if cells.size == 0:
+        cells = np.array([terrain.height_at(x)])
+    def reach(h):
+        return x + L0 * np.sin(angles) + v * np.sqrt(2 * np.maximum(z - h - L0 * np.cos(angles), 0.0) / g)
+    return float(reach(float(cells.max())).min()), float(reach(float(cells.min())).max())

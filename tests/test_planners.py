@@ -154,3 +154,29 @@ def test_step_space_on_the_drake_step_map_agrees_with_the_fast_one(controller):
     np.testing.assert_allclose(apex_drake[1], apex_fast[1], atol=2e-3)
     with pytest.raises(ValueError, match="unknown step_map 'mujoco'"):
         planners.make("step", controller=controller, step_map="mujoco")
+
+
+def test_the_foothold_grid_covers_every_touchdown_the_friction_cone_reaches():
+    """Step-space's (and LSTM-guided's) candidate range must contain every foothold some leg angle inside the
+    friction cone lands on: from a fast apex over a ditch the feet land on the far bank, higher than the ditch
+    floor under the body (the range once used the floor and missed the footholds that cross at 3 m/s)."""
+    from drakeslip.terrain import ditch_world, step_world
+    from planners.angle_space import FRICTION_MARGIN
+    from planners.step_space import touchdown_range
+
+    params = SlipParams(friction=0.8)
+    rng = np.random.default_rng(0)
+    angles = np.linspace(-1.0, 1.0, 201) * FRICTION_MARGIN * math.atan(params.friction)
+    over_other_ground = 0
+    for k in range(40):
+        terrain = (ditch_world if k % 2 else step_world)(int(rng.integers(1000)))
+        x = float(rng.uniform(0.0, 8.0))
+        apex = (x, terrain.height_at(x) + rng.uniform(0.55, 1.1), rng.uniform(0.5, 4.0))
+        if terrain.is_ditch_at(x):
+            apex = (x, rng.uniform(0.55, 1.1), apex[2])
+        lo, hi = touchdown_range(*apex, terrain, params)
+        res = step_batch(apex, angles, terrain, params)
+        landed = res.touchdown_x[res.ok]
+        assert np.all((landed >= lo - 1e-9) & (landed <= hi + 1e-9)), (k, apex, lo, hi, landed.min(), landed.max())
+        over_other_ground += bool(landed.size) and terrain.height_at(landed[0]) != terrain.height_at(x)
+    assert over_other_ground >= 5  # the cases the range once got wrong are among those drawn
