@@ -157,6 +157,6 @@ def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[floa
     cells = cells[cells > terrain.ditch_height]
     if cells.size == 0:
         cells = np.array([terrain.height_at(x)])
-    def reach(h):
-        return x + L0 * np.sin(angles) + v * np.sqrt(2 * np.maximum(z - h - L0 * np.cos(angles), 0.0) / g)
-    return float(reach(float(cells.max())).min()), float(reach(float(cells.min())).max())
+    h = np.array([cells.max(), cells.min()])[:, None]  # the highest ground is met soonest, the lowest latest
+    reach = x + L0 * np.sin(angles) + v * np.sqrt(2 * np.maximum(z - h - L0 * np.cos(angles), 0.0) / g)
+    return float(reach[0].min()), float(reach[1].max())
