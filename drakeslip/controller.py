@@ -7,12 +7,12 @@ therefore reads
 
     (xdot, z - h(x_L), x_L - x)      speed, drop to the terrain at the desired foothold, foothold offset
 
-which on flat ground are the paper's inputs (xdot, z, x_L) and, beyond the paper, tell it the terrain height
-at the desired foothold. Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1
-MLP's arithmetic: about 0.25 ms for a node's 40 candidate footholds, 0.5 ms with the Newton polish below.
+which on flat ground are the paper's inputs (xdot, z, x_L) and also tell it the terrain height at the desired
+foothold. Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic;
+torch is needed only to read and write the weights file (training is controller_training.py).
 
-Beyond the paper, ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight
-phase, which the fast step map integrates in closed form: the foot lands at
+``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase, which the fast
+step map integrates in closed form: the foot lands at
 x_L(theta) = x + L0 sin(theta) + xdot sqrt(2 (z - h(x_L) - L0 cos(theta)) / g). That takes the foothold error
 from about a millimetre to micrometres with no step-map call (examples/controller_accuracy.py). It matters
 for plans made without the controller (Angle-space): a hop planned near the edge of its feasible set
@@ -25,13 +25,11 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 import numpy as np
-import torch
-from torch import nn
 
-from .files import atomic_write
-from .params import SlipParams
-from .state import ApexState
-from .terrain import Terrain
+from drakeslip.jobs.files import atomic_write
+from drakeslip.params import SlipParams
+from drakeslip.state import ApexState
+from drakeslip.terrain import Terrain
 
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "controller.pt"
 WEIGHTS_FORMAT = "drakeslip-controller/1"
@@ -46,21 +44,6 @@ class ControllerConfig:
     max_angle: float = 0.8    # [rad] outputs are clipped to the trained range of leg angles
 
 
-class MLP(nn.Module):
-    """Plain tanh MLP: normalized features -> normalized leg angle."""
-
-    def __init__(self, config: ControllerConfig):
-        super().__init__()
-        sizes = [N_FEATURES] + [config.hidden] * config.layers
-        self.hidden = nn.ModuleList(nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
-        self.head = nn.Linear(config.hidden, 1)
-
-    def forward(self, x):
-        for layer in self.hidden:
-            x = torch.tanh(layer(x))
-        return self.head(x).squeeze(-1)
-
-
 def features(apex: np.ndarray, footholds: np.ndarray, terrain: Terrain) -> np.ndarray:
     """(N, 3) network inputs for apex rows (N, 3) (or one apex) and N desired footholds."""
     apex = np.broadcast_to(np.asarray(apex, dtype=np.float64), (footholds.size, 3))
@@ -71,19 +54,27 @@ def features(apex: np.ndarray, footholds: np.ndarray, terrain: Terrain) -> np.nd
 class StepLengthController:
     """Maps (apex, desired foothold x_L, terrain) to the leg angle that lands the foot at x_L."""
 
-    def __init__(self, model: MLP, config: ControllerConfig, feature_mean, feature_std, params: SlipParams,
+    def __init__(self, weights: dict, config: ControllerConfig, feature_mean, feature_std, params: SlipParams,
                  refine: bool = True):
-        self.model = model.eval()
+        """``weights``: the network's parameters by name, ``hidden.K.weight`` (out, in), ``hidden.K.bias`` for each
+        hidden layer K and ``head.weight``, ``head.bias`` (a torch state dict, or arrays)."""
         self.config = config
         self.params = params
         self.refine = refine
         self.feature_mean = np.asarray(feature_mean, dtype=np.float64)
         self.feature_std = np.asarray(feature_std, dtype=np.float64)
-        # numpy copies of the weights for the inference path
-        self._layers = [(l.weight.detach().double().numpy().T.copy(), l.bias.detach().double().numpy().copy())
-                        for l in model.hidden]
-        self._head = (model.head.weight.detach().double().numpy().T.copy(),
-                      model.head.bias.detach().double().numpy().copy())
+        arrays = {k: np.asarray(v, dtype=np.float64) for k, v in weights.items()}
+        sizes = [N_FEATURES] + [config.hidden] * config.layers
+        expected = {f"hidden.{k}.{part}": shape for k, (a, b) in enumerate(zip(sizes[:-1], sizes[1:]))
+                    for part, shape in (("weight", (b, a)), ("bias", (b,)))}
+        expected.update({"head.weight": (1, config.hidden), "head.bias": (1,)})
+        wrong = {k: s for k, s in expected.items() if k not in arrays or arrays[k].shape != s}
+        if wrong or set(arrays) != set(expected):
+            raise ValueError(f"controller weights do not fit a {config.layers} x {config.hidden} network: "
+                             f"expected {expected}, got { {k: v.shape for k, v in arrays.items()} }")
+        self._layers = [(arrays[f"hidden.{k}.weight"].T.copy(), arrays[f"hidden.{k}.bias"].copy())
+                        for k in range(config.layers)]
+        self._head = (arrays["head.weight"].T.copy(), arrays["head.bias"].copy())
 
     # ---- inference -----------------------------------------------------------------------------------
     def _forward(self, feats: np.ndarray) -> np.ndarray:
@@ -142,9 +133,20 @@ class StepLengthController:
         return theta
 
     # ---- persistence ---------------------------------------------------------------------------------
+    def weights(self) -> dict:
+        """The network's parameters by name (the inverse of the constructor's ``weights``)."""
+        out = {}
+        for k, (w, b) in enumerate(self._layers):
+            out[f"hidden.{k}.weight"], out[f"hidden.{k}.bias"] = w.T, b
+        out["head.weight"], out["head.bias"] = self._head[0].T, self._head[1]
+        return out
+
     def save(self, path) -> None:
         """Write the weights atomically (a temporary file renamed over the target)."""
-        blob = {"format": WEIGHTS_FORMAT, "config": asdict(self.config), "state_dict": self.model.state_dict(),
+        import torch
+
+        state = {k: torch.tensor(v, dtype=torch.float32) for k, v in self.weights().items()}
+        blob = {"format": WEIGHTS_FORMAT, "config": asdict(self.config), "state_dict": state,
                 "feature_mean": torch.tensor(self.feature_mean), "feature_std": torch.tensor(self.feature_std),
                 "params": asdict(self.params)}
         with atomic_write(path) as f:
@@ -152,6 +154,10 @@ class StepLengthController:
 
     @classmethod
     def load(cls, path, refine: bool = True) -> "StepLengthController":
+        """A controller from a weights file written by ``save``; a missing, damaged or mismatched file raises
+        FileNotFoundError or ValueError naming it."""
+        import torch
+
         path = Path(path)
         try:
             blob = torch.load(path, map_location="cpu", weights_only=True)
@@ -163,15 +169,13 @@ class StepLengthController:
             raise ValueError(f"controller weights file {path} is not in format {WEIGHTS_FORMAT!r}")
         try:
             config = ControllerConfig(**blob["config"])
-            model = MLP(config)
-            model.load_state_dict(blob["state_dict"])
             params = SlipParams(**blob["params"])
             mean, std = blob["feature_mean"].numpy(), blob["feature_std"].numpy()
-        except (KeyError, TypeError, RuntimeError, ValueError) as exc:
+            if mean.shape != (N_FEATURES,) or std.shape != (N_FEATURES,):
+                raise ValueError("feature statistics of the wrong shape")
+            return cls({k: v.numpy() for k, v in blob["state_dict"].items()}, config, mean, std, params, refine)
+        except (KeyError, TypeError, AttributeError, RuntimeError, ValueError) as exc:
             raise ValueError(f"controller weights file {path} does not match the controller model: {exc}") from exc
-        if mean.shape != (N_FEATURES,) or std.shape != (N_FEATURES,):
-            raise ValueError(f"controller weights file {path} has feature statistics of the wrong shape")
-        return cls(model, config, mean, std, params, refine=refine)
 
     @classmethod
     def load_default(cls, refine: bool = True) -> "StepLengthController":

@@ -14,12 +14,31 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-import torch
 
-from .controller import MLP, ControllerConfig, StepLengthController
-from .params import SlipParams
-from .stepmap import step_batch
-from .terrain import Terrain
+from drakeslip.controller import N_FEATURES, ControllerConfig, StepLengthController
+from drakeslip.params import SlipParams
+from drakeslip.stepmap import step_batch
+from drakeslip.terrain import Terrain
+
+
+def network(config: ControllerConfig):
+    """The controller's network as a torch module for training: a plain tanh MLP, normalized features ->
+    normalized leg angle. Its state dict is what StepLengthController reads."""
+    import torch
+
+    class MLP(torch.nn.Module):
+        def __init__(self):
+            super().__init__()
+            sizes = [N_FEATURES] + [config.hidden] * config.layers
+            self.hidden = torch.nn.ModuleList(torch.nn.Linear(a, b) for a, b in zip(sizes[:-1], sizes[1:]))
+            self.head = torch.nn.Linear(config.hidden, 1)
+
+        def forward(self, x):
+            for layer in self.hidden:
+                x = torch.tanh(layer(x))
+            return self.head(x).squeeze(-1)
+
+    return MLP()
 
 
 @dataclass(frozen=True)
@@ -78,6 +97,8 @@ def _invertible(v, drop, theta, params: SlipParams):
 def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: ControllerConfig = ControllerConfig(),
           train_config: TrainConfig = TrainConfig(), seed: int = 0, log=print) -> StepLengthController:
     """Fit the MLP with Adam and a cosine learning-rate schedule on the mean squared angle error."""
+    import torch
+
     torch.set_num_threads(1)  # a 3-64-64-64-1 MLP gains nothing from more; OpenMP spinning on a busy machine costs 10x
     torch.manual_seed(seed)
     rng = np.random.default_rng(seed)
@@ -87,7 +108,7 @@ def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: Cont
     mean, std = feats[tr].mean(0), feats[tr].std(0)
     x = torch.tensor((feats - mean) / std, dtype=torch.float32)
     y = torch.tensor(theta / config.max_angle, dtype=torch.float32)
-    model = MLP(config)
+    model = network(config)
     opt = torch.optim.Adam(model.parameters(), lr=train_config.lr, weight_decay=train_config.weight_decay)
     steps_per_epoch = math.ceil(len(tr) / train_config.batch_size)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=train_config.epochs * steps_per_epoch)
@@ -110,4 +131,5 @@ def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: Cont
                 val_rmse = torch.sqrt(torch.mean((model(x[val_t]) - y[val_t]) ** 2)).item() * config.max_angle
             log(f"epoch {epoch:4d}  train mse {loss.item():.3e}  val angle rmse {val_rmse:.2e} rad  "
                 f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    return StepLengthController(model, config, mean, std, params)
+    return StepLengthController({k: v.detach().numpy() for k, v in model.state_dict().items()}, config, mean, std,
+                                params)

@@ -12,7 +12,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from .dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_index, classify_foot_contact,
+from drakeslip.dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_index, classify_foot_contact,
                        foot_clearance, foot_position, friction_margin, leg_extension, leg_rate, stance_derivatives,
                        stroke_left)
 
@@ -56,7 +56,8 @@ def first_contact(px, pz, vx, vz, g, t_max, heights, x0, cell):
 
 
 @njit(cache=True)
-def _rk4(s, fx, fz, h, p):
+def rk4_step(s, fx, fz, h, p):
+    """One RK4 step of length h of the stance state s = (x, z, xdot, zdot) on a foot pinned at (fx, fz)."""
     k1 = stance_derivatives(s[0], s[1], s[2], s[3], fx, fz, p)
     k2 = stance_derivatives(s[0] + 0.5 * h * k1[0], s[1] + 0.5 * h * k1[1], s[2] + 0.5 * h * k1[2],
                             s[3] + 0.5 * h * k1[3], fx, fz, p)
@@ -108,7 +109,7 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
     h = math.pi / math.sqrt(p[2] / p[0]) / stance_steps
     t = 0.0
     for n_step in range(MAX_STANCE_PERIODS * stance_steps):
-        s1 = _rk4(s, fx, fz, h, p)
+        s1 = rk4_step(s, fx, fz, h, p)
         fired = False
         for k in range(N_STANCE_GUARDS):
             if _stance_guard(k, s1, fx, fz, p, heights, x0, cell) <= 0.0:

@@ -11,10 +11,10 @@ from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import (BasicVector, EventStatus, LeafSystem, UnrestrictedUpdateEvent,
                                        WitnessFunctionDirection)
 
-from . import dynamics as dyn
-from .params import SlipParams
-from .state import FailureMode
-from .terrain import Terrain
+from drakeslip import dynamics as dyn
+from drakeslip.params import SlipParams
+from drakeslip.state import ApexState, FailureMode
+from drakeslip.terrain import Terrain
 
 SlipState = namedview("SlipState", ["x", "z", "xdot", "zdot"])
 HybridState = namedview("HybridState", ["mode", "leg_deployed", "leg_angle", "foot_x", "foot_z", "failure", "hops"])
@@ -263,8 +263,6 @@ class ApexPolicy(LeafSystem):
         self.DeclareVectorOutputPort("leg_angle", 1, self._calc)
 
     def _calc(self, context, output: BasicVector):
-        from .state import ApexState
-
         s = SlipState(self._state.Eval(context))
         hops = int(HybridState(self._hybrid.Eval(context)).hops)
         angle = self._policy(ApexState(s.x, s.z, s.xdot), hops)

@@ -18,6 +18,9 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from drakeslip.params import SlipParams
+from drakeslip.terrain import Terrain
+
 
 class ApexState(NamedTuple):
     x: float
@@ -63,3 +66,25 @@ class StepResult:
     time: float
     end_state: tuple
     work: int
+
+
+def check_apex(apex, terrain: Terrain, params: SlipParams) -> ApexState:
+    """``apex`` as an ApexState of floats, after checking the inputs of a hop: a Terrain, SlipParams, a finite
+    apex above the terrain. Raises TypeError or ValueError naming the bad value."""
+    if not isinstance(terrain, Terrain):
+        raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
+    if not isinstance(params, SlipParams):
+        raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
+    apex = ApexState(*map(float, apex)).validate()
+    ground = terrain.height_at(apex.x)
+    if apex.z <= ground:
+        raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+    return apex
+
+
+def check_leg_angle(leg_angle: float) -> float:
+    """``leg_angle`` as a float, if it is finite and inside (-pi/2, pi/2); else ValueError naming it."""
+    leg_angle = float(leg_angle)
+    if not math.isfinite(leg_angle) or abs(leg_angle) >= math.pi / 2:
+        raise ValueError(f"leg_angle must be finite and within (-pi/2, pi/2), got {leg_angle!r}")
+    return leg_angle

@@ -6,31 +6,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import fast_step as fs
-from .params import SlipParams
-from .state import ApexState, FailureMode, StepResult
-from .terrain import Terrain
+from drakeslip.params import SlipParams
+from drakeslip.state import ApexState, FailureMode, StepResult, check_apex, check_leg_angle
+from drakeslip.terrain import Terrain
 
 BACKENDS = ("fast", "drake")
-
-
-def _check_inputs(apex, terrain: Terrain, params: SlipParams) -> ApexState:
-    if not isinstance(terrain, Terrain):
-        raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
-    if not isinstance(params, SlipParams):
-        raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
-    apex = ApexState(*map(float, apex)).validate()
-    ground = terrain.height_at(apex.x)
-    if apex.z <= ground:
-        raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
-    return apex
-
-
-def _check_angle(leg_angle: float) -> float:
-    leg_angle = float(leg_angle)
-    if not math.isfinite(leg_angle) or abs(leg_angle) >= math.pi / 2:
-        raise ValueError(f"leg_angle must be finite and within (-pi/2, pi/2), got {leg_angle!r}")
-    return leg_angle
 
 
 def step(apex, leg_angle: float, terrain: Terrain, params: SlipParams | None = None, backend: str = "fast",
@@ -38,12 +18,12 @@ def step(apex, leg_angle: float, terrain: Terrain, params: SlipParams | None = N
     """One hop from ``apex`` with the leg commanded to ``leg_angle``: flight, touchdown, stance, liftoff and
     flight to the next apex, stopping at the first failure."""
     params = params or SlipParams()
-    apex = _check_inputs(apex, terrain, params)
-    leg_angle = _check_angle(leg_angle)
+    apex = check_apex(apex, terrain, params)
+    leg_angle = check_leg_angle(leg_angle)
     if backend == "fast":
         return step_batch(apex, [leg_angle], terrain, params, **backend_options).result(0)
     if backend == "drake":
-        from .simulate import drake_step
+        from drakeslip.simulation import drake_step
 
         return drake_step(apex, leg_angle, terrain, params, **backend_options)
     raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
@@ -80,9 +60,12 @@ class BatchStepResult:
 
 
 def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = None,
-               stance_steps: int = fs.STANCE_STEPS, parallel: bool = False) -> BatchStepResult:
+               stance_steps: int | None = None, parallel: bool = False) -> BatchStepResult:
     """Fast backend, batched: all ``leg_angles`` from one apex, or, if ``apex`` is an (N, 3) array, one
-    leg angle per apex row. This is the planners' inner loop."""
+    leg angle per apex row. This is the planners' inner loop. ``stance_steps``: RK4 steps per half natural
+    period of stance (default ``fast_step.STANCE_STEPS``)."""
+    from drakeslip import fast_step as fs  # compiled on first use, so importing the step map stays light
+
     params = params or SlipParams()
     angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
     if not np.all(np.isfinite(angles)) or np.any(np.abs(angles) >= math.pi / 2):
@@ -90,13 +73,14 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
         raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad)!r}")
     apexes = np.asarray(apex, dtype=np.float64)
     if apexes.ndim == 1:
-        _check_inputs(apexes, terrain, params)
+        check_apex(apexes, terrain, params)
         apexes = np.broadcast_to(apexes, (angles.size, 3))
     elif apexes.shape != (angles.size, 3):
         raise ValueError(f"apex must be one (x, z, xdot) or an array of shape ({angles.size}, 3), "
                          f"got shape {apexes.shape}")
     elif not np.all(np.isfinite(apexes)):
         raise ValueError("apex array contains non-finite values")
+    stance_steps = fs.STANCE_STEPS if stance_steps is None else stance_steps
     if int(stance_steps) < 4:
         raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
     kernel = fs.step_many_parallel if parallel else fs.step_many

@@ -63,6 +63,11 @@ class Terrain:
         idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
         return self.heights[idx].copy(), self.x0 + first * self.cell
 
+    def perceived(self, x_body: float) -> "Terrain":
+        """What the robot sees with its body at ``x_body``: the perception window as a Terrain of its own."""
+        heights, x_start = self.window(x_body)
+        return Terrain(heights, self.cell, x_start, self.ditch_height)
+
     def to_dict(self) -> dict:
         return {"x0": self.x0, "cell": self.cell, "heights": [float(v) for v in self.heights]}
 

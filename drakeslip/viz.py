@@ -12,9 +12,9 @@ from matplotlib.animation import PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from .hopper import HybridState, Mode
-from .simulate import SimulationResult
-from .terrain import Terrain
+from drakeslip.hopper import HybridState, Mode
+from drakeslip.simulation import SimulationResult
+from drakeslip.terrain import Terrain
 
 GROUND_COLOR = "#8c6d46"
 BODY_COLOR = "#1f4e99"

@@ -1,25 +1,30 @@
 """Foothold error of the step-length controller on flat and stepped terrain.
 
-    python examples/controller_accuracy.py --samples 20000 --drake 40 --seed 0
+    python3 examples/controller_accuracy.py --samples 20000 --drake 40 --seed 0
 
 Targets are footholds the hopper really reaches: random apex states (0.5-3 m/s, 0.7-1.2 m above the ground)
 and leg angles are simulated with the fast step map and the successful touchdowns kept. The controller is
 then asked for each of those footholds and its leg angle simulated again: the error is |landed - target|.
-A random subset is re-run on the Drake simulator to confirm.
+A random subset is re-run on the Drake simulator to confirm (--drake 0: none).
+
+Exit status: 0 when the measurement ran, 2 for a usage or input error (e.g. a damaged weights file).
 """
 from __future__ import annotations
 
-import argparse
-import shlex
 import sys
 
 import numpy as np
 
-from drakeslip import SlipParams, Terrain, step, step_batch, step_world
+from drakeslip import SlipParams, Terrain, step_world
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
+from drakeslip.jobs import cli
+
+N_STEPPED = 10  # stepped terrain: step_world seeds 0..9, the samples spread over them
 
 
-def targets(terrain: Terrain, params: SlipParams, n: int, rng):
+def targets(terrain, params, n: int, rng):
+    from drakeslip import step_batch
+
     x = rng.uniform(-1.0, 15.0, n)
     apex = np.stack([x, terrain.height_at(x) + rng.uniform(0.7, 1.2, n), rng.uniform(0.5, 3.0, n)], axis=1)
     res = step_batch(apex, rng.uniform(-0.6, 0.6, n), terrain, params, parallel=True)
@@ -32,26 +37,40 @@ def stats(err) -> str:
     err = np.asarray(err)
     hit = err < 0.05
     e = err[hit]
+    misses = f"misses {np.count_nonzero(~hit)}/{err.size}"
+    if e.size == 0:
+        return f"no target hit within 5 cm   {misses}"
     return (f"median {1e3 * np.median(e):9.3g} mm   p90 {1e3 * np.quantile(e, 0.9):9.3g} mm   "
-            f"max {1e3 * e.max():9.3g} mm   misses {np.count_nonzero(~hit)}/{err.size}")
+            f"max {1e3 * e.max():9.3g} mm   {misses}")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--weights", default=str(DEFAULT_WEIGHTS))
-    ap.add_argument("--samples", type=int, default=20000,
-                    help="random hops per terrain kind (before keeping the successful ones)")
-    ap.add_argument("--drake", type=int, default=40, help="targets per terrain kind re-run on the Drake simulator")
-    ap.add_argument("--seed", type=int, default=0)
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--weights", type=cli.input_file, default=DEFAULT_WEIGHTS, help="controller weights file")
+    ap.add_argument("--samples", type=cli.integer(N_STEPPED), default=20000,
+                    help=f"random hops per terrain kind, before keeping the successful ones (at least {N_STEPPED}: "
+                         f"the stepped kind spreads them over {N_STEPPED} terrains)")
+    ap.add_argument("--drake", type=cli.non_negative_int, default=40,
+                    help="targets per terrain kind re-run on the Drake simulator (0: none)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the random apexes and leg angles")
     args = ap.parse_args(argv)
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
-    controller = StepLengthController.load(args.weights)
+
+    try:
+        controller = StepLengthController.load(args.weights)
+    except (OSError, ValueError) as error:  # a damaged or mismatched weights file
+        ap.error(f"--weights: {error}")
+    cli.announce(argv)
+
+    from drakeslip import step, step_batch  # the step maps: numba, and pydrake for the Drake one
+
     params = SlipParams()
     rng = np.random.default_rng(args.seed)
-    kinds = [("flat", [Terrain.flat(length=25.0)]), ("stepped (step_world 0-9)", [step_world(s) for s in range(10)])]
+    kinds = [("flat", [Terrain.flat(length=25.0)]),
+             (f"stepped (step_world 0-{N_STEPPED - 1})", [step_world(s) for s in range(N_STEPPED)])]
+    backends = ("fast", "drake") if args.drake else ("fast",)
     for name, terrains in kinds:
         cases = [(t, *targets(t, params, args.samples // len(terrains), rng)) for t in terrains]
-        for backend in ("fast", "drake"):
+        for backend in backends:
             for refine in (False, True):
                 errors = []
                 for t, apex, target in cases:
@@ -67,7 +86,8 @@ def main(argv=None):
                     errors.append(np.abs(np.nan_to_num(landed, nan=np.inf) - target))
                 label = f"{name:<25} {backend:<5} {'refined' if refine else 'MLP only':<8}"
                 print(f"{label} {stats(np.concatenate(errors))}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,96 +1,97 @@
-"""Receding-horizon evaluation of planners on a suite (the paper's Tables II/III).
+r"""Receding-horizon evaluation of planners on a suite (the paper's Tables II/III).
 
-    python examples/evaluate.py --suite suites/ditch.json --planners heuristic,angle,step --jobs 2 --out out/ditch.json
+    python3 examples/evaluate.py --suite suites/ditch.json --planners heuristic,angle,step --jobs 2 --out out/ditch.json
 
-Each planning call sees the 8 m / 3 m perception window; the first 3 footholds are executed by the
-controller on the Drake simulator, then it replans. Finished cases are cached in OUT.cases.jsonl, so a
-killed run continues where it stopped (--no-resume starts over). Two settings of one planner run side by side
-as NAME@VARIANT, with their options keyed by that label:
+Each planning call sees the 8 m / 3 m perception window; the first 3 footholds of each plan are executed by the
+controller on the Drake simulator (--backend fast: on the fast step map), then it replans. Finished cases are
+kept in OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume starts over). Two settings of
+one planner run side by side as NAME@VARIANT, with their options keyed by that label:
 
-    python examples/evaluate.py --suite suites/ditch.json --planners step,lstm-guided,lstm-guided@lazy \
-        --options '{"lstm-guided@lazy": {"lazy": true}}' --backend fast --jobs 2 --out out/lazy.json
+    python3 examples/evaluate.py --suite suites/ditch.json --planners lstm-guided,lstm-guided@paper \
+        --backend fast --jobs 2 --out out/guided.json
 
 Planning on the Drake model itself (each candidate hop simulated on Drake, about 0.1 s a hop) is slow, so take
 a spread-out sample of the cases:
 
-    python examples/evaluate.py --suite suites/ditch.json --every 13 --cases 10 --planners step,lstm-guided \
-        --options '{"step": {"step_map": "drake", "max_time_s": 600},
-                    "lstm-guided": {"step_map": "drake", "max_time_s": 600}}' --baseline step --out out/drake.json
+    python3 examples/evaluate.py --suite suites/ditch.json --every 13 --cases 10 --planners step,lstm-guided \
+        --options '{"step": {"step_map": "drake"}, "lstm-guided": {"step_map": "drake"}}' --baseline step \
+        --out out/drake.json
+
+Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error.
 """
 from __future__ import annotations
 
-import argparse
-import shlex
 import sys
-from pathlib import Path
 
-from planners import available, planner_name
-from planners.registry import label_options
-from planners.evaluation import EvalConfig, evaluate, make_planners, ratios, table, write_json
-from planners.suite import load_suite
+from drakeslip.jobs import cli
+from planners.closed_loop import ClosedLoopConfig
+from planners.registry import check_label, label_options
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--planners", default="heuristic,angle,step",
-                    help=f"comma-separated, of {available()}, each optionally NAME@VARIANT")
-    ap.add_argument("--cases", type=int, default=None, help="only the first N cases (after --every)")
-    ap.add_argument("--every", type=int, default=1,
-                    help="take every K-th case (suites list 10 starts per terrain: K = 7 or 13 spreads a few "
-                         "cases over the terrains and starts)")
-    ap.add_argument("--out", required=True, help="results JSON (written atomically)")
-    ap.add_argument("--jobs", type=int, default=1, help="worker processes")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
+    ap.add_argument("--planners", type=cli.names, default="heuristic,angle,step",
+                    help="planner labels, comma-separated: a name or NAME@VARIANT (a preset such as lstm@paper, or "
+                         "any variant with options from --options)")
+    ap.add_argument("--cases", type=cli.positive_int, default=None, help="only the first N cases (after --every)")
+    ap.add_argument("--every", type=cli.positive_int, default=1,
+                    help="every K-th case (suites list 10 starts per terrain: K = 7 or 13 spreads a few cases over "
+                         "the terrains and starts)")
+    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
     ap.add_argument("--options", default="{}",
-                    help='planner options as JSON, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
-    ap.add_argument("--controller", default=None, help="controller weights (default: the committed ones)")
-    ap.add_argument("--executed", type=int, default=EvalConfig.executed_per_plan, help="footholds per plan")
-    ap.add_argument("--backend", default="drake", choices=("drake", "fast"),
-                    help="simulator that executes the plans (drake: the protocol; fast: quick diagnosis)")
+                    help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
+    ap.add_argument("--controller", type=cli.input_file, default=None,
+                    help="controller weights (default: the committed drakeslip/weights/controller.pt)")
+    ap.add_argument("--executed", type=cli.positive_int, default=ClosedLoopConfig.executed_per_plan,
+                    help="footholds of each plan executed before replanning")
+    ap.add_argument("--backend", choices=("drake", "fast"), default="drake",
+                    help="what executes the plans: the Drake simulator (the protocol) or the fast step map")
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
-    ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--baseline", default=None,
                     help="also print this planner's ODE calls and planning time over each other planner's")
+    ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_parallel(ap)
     args = ap.parse_args(argv)
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
-    if args.every < 1 or (args.cases is not None and args.cases < 1):
-        ap.error(f"--every and --cases must be positive, got --every {args.every} --cases {args.cases}")
-    if args.jobs < 1:
-        ap.error(f"--jobs must be at least 1, got {args.jobs}")
-    names = [n for n in args.planners.split(",") if n]
-    unknown = [n for n in names if planner_name(n) not in available()]
-    if unknown:
-        ap.error(f"unknown planner(s) {unknown}; known planners: {', '.join(available())}")
-    if args.baseline is not None and args.baseline not in names:
-        ap.error(f"--baseline {args.baseline!r} is not among --planners {names}")
     try:
-        options = label_options(args.options, names)
+        labels = [check_label(label) for label in args.planners]
+        options = label_options(args.options, labels)
     except ValueError as error:
         ap.error(str(error))
-    try:  # a bad option is refused here, by label, not in a worker's traceback
-        make_planners(options)
-    except ValueError as error:
-        ap.error(f"--{error}")  # "--options for LABEL: ..."
+    if args.baseline is not None and args.baseline not in labels:
+        ap.error(f"--baseline {args.baseline!r} is not among --planners {labels}")
+    executor = cli.executor(args)
+    config = ClosedLoopConfig(executed_per_plan=args.executed, backend=args.backend, refine=not args.mlp_only)
+
+    from drakeslip.jobs.executors import prepare
+    from drakeslip.jobs.runner import remove, write_json
+    from planners.formats.suite import load_suite
+    from verification.benchmark import evaluate, worker_setup
+    from verification.report import ratios, table
+
+    specs = {label: options.get(label) for label in labels}
     try:
         suite = load_suite(args.suite)
-    except (OSError, ValueError) as error:  # a missing or malformed suite file
-        ap.error(str(error))
-    cache = Path(args.out + ".cases.jsonl")
-    if args.no_resume and cache.exists():
-        cache.unlink()
-    results = evaluate(suite, {n: options.get(n, {}) for n in names}, n_cases=args.cases, every=args.every,
-                       jobs=args.jobs, cache_path=cache, controller_path=args.controller,
-                       config=EvalConfig(executed_per_plan=args.executed, backend=args.backend,
-                                         refine=not args.mlp_only), progress=not args.quiet)
-    write_json(results, args.out)
+        prepare(worker_setup(specs, args.controller, config.refine))
+    except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
+        ap.error(f"--{error}" if str(error).startswith("options for") else str(error))
+    cli.announce(argv)
+    cache = str(args.out) + ".cases.jsonl"
+    if args.no_resume:
+        remove(cache)
+    results = evaluate(suite, specs, n_cases=args.cases,
+                       every=args.every, executor=executor, cache_path=cache, controller_path=args.controller,
+                       config=config, progress=not args.quiet)
+    write_json(args.out, results)
     print(table(results))
     if args.baseline:
         print(ratios(results, args.baseline))
     print(f"wrote {args.out}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

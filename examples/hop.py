@@ -9,15 +9,13 @@ themselves run in Drake's simulator.
 """
 from __future__ import annotations
 
-import argparse
 import math
-from pathlib import Path
+import sys
 
 import numpy as np
 
 import drakeslip as ds
-from drakeslip.simulate import simulate
-from drakeslip.viz import animate, plot_trajectory
+from drakeslip.jobs import cli
 
 N_ANGLES = 41  # lookahead grid over +-atan(mu)
 SURVIVAL_WEIGHT = 0.5  # preference for angles whose next apex leaves many safe choices
@@ -82,31 +80,30 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
         print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
 
 
-def main():
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--terrain", choices=["flat", "ditch", "step", "mixed"], default="step",
-                        help="terrain family (default step)")
-    parser.add_argument("--seed", type=int, default=0, help="terrain seed (default 0)")
-    parser.add_argument("--hops", type=int, default=10, help="number of hops to simulate (default 10)")
-    parser.add_argument("--out", type=Path, required=True, help="figure to write (PNG)")
-    parser.add_argument("--anim", type=Path, help="also write an animation (GIF)")
-    parser.add_argument("--x0", type=float, default=0.0, help="start apex x [m] (default 0)")
-    parser.add_argument("--z", type=float, default=0.75, help="start apex height, absolute [m] (default 0.75)")
-    parser.add_argument("--xdot", type=float, default=1.5,
-                        help="start apex speed [m/s], also the lookahead's nominal speed (default 1.5)")
-    args = parser.parse_args()
-    if args.hops < 1:
-        parser.error("--hops must be at least 1")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--terrain", choices=["flat", *sorted(ds.TERRAIN_FAMILIES)], default="step", help="terrain family")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="terrain seed")
+    ap.add_argument("--hops", type=cli.positive_int, default=10, help="number of hops to simulate")
+    ap.add_argument("--out", type=cli.output_file(".png", ".pdf", ".svg"), required=True, help="figure to write")
+    ap.add_argument("--anim", type=cli.output_file(".gif"), default=None, help="also write an animation (GIF)")
+    ap.add_argument("--x0", type=cli.finite, default=0.0, help="start apex x [m]")
+    ap.add_argument("--z", type=cli.finite, default=0.75, help="start apex height, absolute [m]")
+    ap.add_argument("--xdot", type=cli.positive, default=1.5,
+                    help="start apex speed [m/s], also the lookahead's nominal speed")
+    args = ap.parse_args(argv)
 
     params = ds.SlipParams()
     terrain = ds.Terrain.flat() if args.terrain == "flat" else ds.TERRAIN_FAMILIES[args.terrain](args.seed)
     start = ds.ApexState(args.x0, args.z, args.xdot)
+    if start.z <= terrain.height_at(start.x):
+        ap.error(f"the start apex z={start.z} is not above the terrain (height {terrain.height_at(start.x)} at "
+                 f"x={start.x})")
+    from drakeslip.viz import animate, plot_trajectory
+
     policy = TwoHopLookahead(terrain, params, nominal_speed=args.xdot)
     print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
-    try:
-        result = simulate(start, policy, terrain, params, max_hops=args.hops)
-    except ValueError as error:  # e.g. a start apex that is not above the terrain
-        parser.error(str(error))
+    result = ds.simulate(start, policy, terrain, params, max_hops=args.hops)
     report(result, policy, start)
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -117,8 +114,8 @@ def main():
         args.anim.parent.mkdir(parents=True, exist_ok=True)
         frames = animate(result, args.anim)
         print(f"animation: {args.anim} ({frames} frames)")
-    return 1 if result.failure is not None else 0
+    return cli.FAILED if result.failure is not None else cli.OK
 
 
 if __name__ == "__main__":
-    raise SystemExit(main())
+    sys.exit(main())

@@ -1,11 +1,14 @@
-"""The paper's Fig. 1 and Fig. 3: the LSTM's per-step probability over the terrain.
+"""The paper's Fig. 1 and Fig. 3, drawn with the paper's model: the LSTM's per-step probability over the terrain.
 
-    python3 examples/lstm_figures.py --out-dir docs
+    python3 examples/lstm_figures.py --out docs
 
 fig1_lstm_steps.png: one start on a mixed terrain; the distributions of the first and fourth steps drawn
 over the terrain, with the hops the controller makes to the LSTM planner's first four footholds (on Drake).
 fig3_second_step.png: ditch (top) and step (bottom) terrain, three initial energies each (arrow length ~
 apex speed); the second step's distribution scaled so its mode has height 1, and the 4-step plan (modes).
+The planner is the paper's LSTM planner (planners.make("lstm@paper")), with --weights for another model.
+
+Exit status: 0 when both figures were written, 2 for a usage or input error (e.g. a damaged weights file).
 """
 from __future__ import annotations
 
@@ -14,16 +17,26 @@ import os
 import sys
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES  # noqa: E402
-from drakeslip.controller import StepLengthController  # noqa: E402
-from drakeslip.simulate import simulate  # noqa: E402
-from drakeslip.viz import plot_terrain  # noqa: E402
-from planners import make  # noqa: E402
+from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
+from drakeslip.jobs import cli
+from planners.checkpoints import PAPER_WEIGHTS
 
+FIGURES = ("fig1_lstm_steps.png", "fig3_second_step.png")
+
+
+def output_folder(text: str):
+    """cli.output_folder, and the folder (or the nearest part of its path that exists) is writable: checked up
+    front, made only when the files are written."""
+    path = cli.output_folder(text)
+    for part in (path, *path.parents):
+        if part.exists():
+            if not part.is_dir():
+                raise argparse.ArgumentTypeError(f"cannot make the folder {text!r}: {str(part)!r} is a file")
+            if not os.access(part, os.W_OK | os.X_OK):
+                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(part)!r} is not writable")
+            break
+    return path
 COLORS = ("#2ca02c", "#ff7f0e")  # first step, fourth step (the paper's green and orange)
 
 
@@ -36,6 +49,12 @@ def draw_distribution(ax, x, p, terrain, color, scale=0.35, label=None):
 
 
 def fig1(planner, controller, args):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from drakeslip.simulation import simulate
+    from drakeslip.viz import plot_terrain
+
     terrain = TERRAIN_FAMILIES["mixed"](args.seed)
     params = SlipParams()
     apex = ApexState(0.0, terrain.height_at(0.0) + 0.9, 1.8)
@@ -58,10 +77,15 @@ def fig1(planner, controller, args):
     ax.set_aspect("equal")
     ax.set_ylim(top=1.6)
     ax.legend(loc="upper right", fontsize=8, ncols=2)
-    fig.savefig(os.path.join(args.out_dir, "fig1_lstm_steps.png"), dpi=110)
+    fig.savefig(args.out / FIGURES[0], dpi=110)
 
 
 def fig3(planner, args):
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    from drakeslip.viz import plot_terrain
+
     starts = [(0.8, 1.0), (0.9, 2.0), (1.0, 3.0)]  # (apex height above ground, speed): increasing energy
     fig = Figure(figsize=(14, 5.5), layout="constrained")
     FigureCanvasAgg(fig)
@@ -82,21 +106,34 @@ def fig3(planner, args):
             ax.set_title(f"{family}: apex {h} m, {v} m/s", fontsize=9)
             ax.set_ylim(top=terrain.height_at(0.0) + 1.3)
     fig.suptitle("Second-step distribution (scaled so every mode has the same height) and the 4-step LSTM plan (triangles)")
-    fig.savefig(os.path.join(args.out_dir, "fig3_second_step.png"), dpi=110)
+    fig.savefig(args.out / FIGURES[1], dpi=110)
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out-dir", default="docs")
-    ap.add_argument("--seed", type=int, default=3, help="terrain seed")
-    ap.add_argument("--weights", default=None, help="LSTM weights (default: the committed ones)")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--out", type=output_folder, default="docs", help="folder the two figures are written to")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="seed of the mixed, ditch and step terrains")
+    ap.add_argument("--weights", type=cli.input_file, default=PAPER_WEIGHTS,
+                    help="LSTM weights the paper's planner runs with (the paper's model by default)")
     args = ap.parse_args(argv)
-    os.makedirs(args.out_dir, exist_ok=True)
-    planner = make("lstm", weights=args.weights)
-    fig1(planner, StepLengthController.load_default(), args)
+
+    from drakeslip.controller import StepLengthController
+    from planners import make
+
+    try:
+        planner = make("lstm@paper", weights=args.weights)
+    except (OSError, ValueError) as error:  # a damaged or mismatched weights file
+        ap.error(f"--weights: {error}")
+    controller = StepLengthController.load_default()
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
+    fig1(planner, controller, args)
     fig3(planner, args)
-    print(f"wrote {args.out_dir}/fig1_lstm_steps.png and {args.out_dir}/fig3_second_step.png")
+    print(f"wrote {args.out / FIGURES[0]} and {args.out / FIGURES[1]}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,36 +1,72 @@
 """Write the paper's test suites: 15 terrains x 10 initial apex states = 150 cases, friction 0.8, goal 10 m.
 
-    python examples/make_suites.py                       # the committed suites/ditch.json and suites/step.json
-    python examples/make_suites.py --seed 5000 --families ditch,step,mixed --out-dir out/fresh   # fresh ones
+    python3 examples/make_suites.py                       # the committed suites/ditch.json and suites/step.json
+    python3 examples/make_suites.py --seed 5000 --families ditch,step,mixed --out out/fresh   # fresh ones
+
+Each family's suite is written to OUT/NAME.json: NAME is the family for the committed seeds, FAMILY-SEED for
+fresh ones (terrain i of the k-th family uses seed SEED + 1000 k + i).
+
+Exit status: 0 when the suites were written, 2 for a usage error.
 """
 from __future__ import annotations
 
 import argparse
-import shlex
+import os
 import sys
-from pathlib import Path
 
-from planners.suite import COMMITTED_SEEDS, PAPER_TERRAINS, make_suite, save_suite
+from drakeslip import TERRAIN_FAMILIES
+from drakeslip.jobs import cli
+from planners.formats.suite import COMMITTED_SEEDS, PAPER_TERRAINS
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--families", default="ditch,step", help="comma-separated: ditch, step, mixed")
-    ap.add_argument("--seed", type=int, default=None,
-                    help="base terrain seed (terrain i uses seed + 1000 * family index + i); "
-                         "default: the committed suites' seeds")
-    ap.add_argument("--terrains", type=int, default=PAPER_TERRAINS)
-    ap.add_argument("--out-dir", default="suites")
+def output_folder(text: str):
+    """cli.output_folder, and the folder (or the nearest part of its path that exists) is writable: checked up
+    front, made only when the files are written."""
+    path = cli.output_folder(text)
+    for part in (path, *path.parents):
+        if part.exists():
+            if not part.is_dir():
+                raise argparse.ArgumentTypeError(f"cannot make the folder {text!r}: {str(part)!r} is a file")
+            if not os.access(part, os.W_OK | os.X_OK):
+                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(part)!r} is not writable")
+            break
+    return path
+
+
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--families", type=cli.names, default="ditch,step",
+                    help=f"terrain families, comma-separated, from {','.join(sorted(TERRAIN_FAMILIES))}")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=None,
+                    help="base terrain seed (terrain i of the k-th family uses seed + 1000 k + i); "
+                         "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
+                                                                           COMMITTED_SEEDS.items()))
+    ap.add_argument("--terrains", type=cli.positive_int, default=PAPER_TERRAINS, help="terrains per suite")
+    ap.add_argument("--out", type=output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
-    for k, family in enumerate(args.families.split(",")):
+    unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
+    if unknown:
+        ap.error(f"--families: unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+    if args.seed is None and not set(args.families) <= set(COMMITTED_SEEDS):
+        ap.error(f"--families {sorted(set(args.families) - set(COMMITTED_SEEDS))} have no committed suite; "
+                 "give --seed")
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
+    cli.announce(argv)
+
+    from planners.formats.suite import make_suite, save_suite
+
+    for k, family in enumerate(args.families):
         seed = COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
         suite = make_suite(family, seed, n_terrains=args.terrains,
                            name=family if args.seed is None else f"{family}-{seed}")
-        path = Path(args.out_dir) / f"{suite.name}.json"
+        path = args.out / f"{suite.name}.json"
         save_suite(suite, path)
         print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

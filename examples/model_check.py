@@ -8,69 +8,67 @@ to confirm a "not-traversable"), merging apexes within 1 cm / 1 cm/s, with the w
 executes any witness on Drake (see verification/model_check.py for what the verdicts mean exactly). Each
 finished case is appended to OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume starts
 over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases at a
-time in separate processes.
+time in separate processes (--executor ray: on a Ray cluster).
+
+Exit status: 0 done, 1 a planner crossed a case the oracle calls not traversable (--against), 2 a usage error.
 """
 from __future__ import annotations
 
-import argparse
 import json
-import shlex
 import sys
 from pathlib import Path
 
-from planners.base import Budget
-from planners.suite import load_suite
-from verification.model_check import (COARSE, DEFAULT_BUDGET, LEVELS, NOT_TRAVERSABLE, UNKNOWN, check_suite,
-                                      cross_check, select_cases, write_json)
+from drakeslip.jobs import cli
+from verification.model_check import DEFAULT_BUDGET
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--out", required=True, help="results JSON (written atomically)")
-    ap.add_argument("--cases", type=int, default=None, help="only N cases: the first N, or N at random with --seed")
-    ap.add_argument("--seed", type=int, default=None, help="draw the --cases at random with this seed")
-    ap.add_argument("--ids", default=None, help="comma-separated case ids (instead of --cases)")
-    ap.add_argument("--budget", type=int, default=DEFAULT_BUDGET.max_nodes,
-                    help=f"node expansions per case, all passes (default {DEFAULT_BUDGET.max_nodes})")
-    ap.add_argument("--seconds", type=float, default=DEFAULT_BUDGET.max_time_s,
-                    help=f"search seconds per case (default {DEFAULT_BUDGET.max_time_s:g})")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--suite", type=cli.input_file, required=True, help="suite JSON file (format drakeslip-suite/1)")
+    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
+    ap.add_argument("--cases", type=cli.positive_int, default=None,
+                    help="only N cases: the first N, or N at random with --seed")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=None, help="draw the --cases at random with this seed")
+    ap.add_argument("--ids", type=cli.names, default=None, help="comma-separated case ids (instead of --cases)")
+    ap.add_argument("--budget", type=cli.positive_int, default=DEFAULT_BUDGET.max_nodes, help="node expansions per case, all passes")
+    ap.add_argument("--seconds", type=cli.positive, default=DEFAULT_BUDGET.max_time_s, help="search seconds per case")
     ap.add_argument("--no-refine", action="store_true",
                     help="call a case not traversable after the 0.5 deg pass alone (no 0.25 deg confirmation)")
     ap.add_argument("--no-drake-check", action="store_true",
                     help="accept witnesses on the fast step map without executing them on Drake (diagnosis only)")
-    ap.add_argument("--against", default=None,
+    ap.add_argument("--against", type=cli.names, default=None,
                     help="comma-separated results JSON files of examples/evaluate.py on the same suite: report "
                          "the cases a planner crossed that the oracle calls not traversable (exit 1 if any)")
-    ap.add_argument("--jobs", type=int, default=1,
-                    help="cases checked at a time, each in its own process (--seconds is wall-clock per case, so "
-                         "keep it at most the cores)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_parallel(ap)
     args = ap.parse_args(argv)
-    print("reproduce with: python3 " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
+    if args.ids and (args.cases or args.seed is not None):
+        ap.error("--ids names the cases; it does not go with --cases or --seed")
+    executor = cli.executor(args)
 
-    if args.jobs < 1:
-        ap.error(f"--jobs must be positive, got {args.jobs}")
-    try:
-        budget = Budget(args.budget, args.seconds)
-    except ValueError as exc:
-        ap.error(f"bad --budget/--seconds: {exc}")
+    from drakeslip.jobs.runner import remove, write_json
+    from planners.base import Budget
+    from planners.formats.suite import load_suite
+    from verification.model_check import COARSE, LEVELS, NOT_TRAVERSABLE, UNKNOWN
+    from verification.model_check_suite import check_suite, cross_check, select_cases
+
     try:
         suite = load_suite(args.suite)
-        ids = [i for i in args.ids.split(",") if i] if args.ids else None
-        cases = select_cases(suite, args.cases, args.seed, ids)
-        against = [json.loads(Path(f).read_text()) for f in args.against.split(",")] if args.against else []
+        cases = select_cases(suite, args.cases, args.seed, args.ids)
+        against = [json.loads(Path(f).read_text()) for f in args.against] if args.against else []
         if not all(isinstance(e, dict) and isinstance(e.get("planners"), dict) for e in against):
             raise ValueError(f"--against {args.against}: not a results file of examples/evaluate.py (no 'planners')")
     except (ValueError, OSError) as exc:
         ap.error(str(exc))
-    cache = Path(args.out + ".cases.jsonl")
-    if args.no_resume and cache.exists():
-        cache.unlink()
-    results = check_suite(suite, cases, cache, budget, levels=(COARSE,) if args.no_refine else LEVELS,
-                          drake_check=not args.no_drake_check, progress=not args.quiet, jobs=args.jobs)
-    write_json(results, args.out)
+    cli.announce(argv)
+    cache = str(args.out) + ".cases.jsonl"
+    if args.no_resume:
+        remove(cache)
+    results = check_suite(suite, cases, cache, Budget(args.budget, max_time_s=args.seconds),
+                          levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
+                          progress=not args.quiet, executor=executor)
+    write_json(args.out, results)
 
     s = results["summary"]
     for r in results["cases"]:
@@ -85,16 +83,15 @@ def main(argv=None):
           f"max {times[-1]:.1f} s")
     print(f"wrote {args.out}")
     contradicted = 0
-    for path, evaluation in zip(args.against.split(",") if args.against else [], against):
+    for path, evaluation in zip(args.against or [], against):
         for name, c in cross_check(results, evaluation).items():
             contradicted += len(c["contradicted"])
             missed = " ".join(c["missed"][:6]) + (" ..." if len(c["missed"]) > 6 else "")
             print(f"soundness vs {name} ({path}): crossed {c['crossed']} of {c['compared']}, of which the oracle "
                   f"calls not traversable {len(c['contradicted'])} {' '.join(c['contradicted'])}; failed where "
                   f"the oracle found a witness: {len(c['missed'])} {missed}")
-    if contradicted:
-        sys.exit(1)
+    return cli.FAILED if contradicted else cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

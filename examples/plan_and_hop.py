@@ -1,49 +1,51 @@
-"""Plan footsteps over rough terrain and hop there: the Step-space planner in a receding-horizon loop, each
-plan's first 3 footholds executed by the learned controller on the Drake hybrid simulator, to the goal.
+"""Plan footsteps over rough terrain and hop there: a planner in the receding-horizon loop, each plan's first 3
+footholds executed by the learned controller on the Drake hybrid simulator, to the goal.
 
-    python examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
+    python3 examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
 
 Writes a figure of the terrain, the body path, the planned and the executed footholds.
+Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error.
 """
 from __future__ import annotations
 
-import argparse
-import shlex
 import sys
-from pathlib import Path
 
-import numpy as np
+from drakeslip.jobs import cli
+from drakeslip.terrain import TERRAIN_FAMILIES
+from planners.closed_loop import EXECUTED_PER_PLAN
+from planners.registry import check_label
 
-from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
-from drakeslip.controller import StepLengthController
-from drakeslip.simulate import simulate
-from planners import available, make
-from planners.registry import takes
-from planners.evaluation import EXECUTED_PER_PLAN, EvalConfig, run_case
-from planners.suite import Case
+FIGURE = (".png", ".pdf", ".svg")
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--terrain", default="mixed", choices=sorted(TERRAIN_FAMILIES))
-    ap.add_argument("--seed", type=int, default=3, help="terrain seed")
-    ap.add_argument("--planner", default="step", help=f"one of {available()}")
-    ap.add_argument("--speed", type=float, default=2.0, help="initial apex forward speed [m/s]")
-    ap.add_argument("--height", type=float, default=0.9, help="initial apex height above the ground [m]")
-    ap.add_argument("--goal", type=float, default=10.0, help="goal x [m]")
-    ap.add_argument("--friction", type=float, default=0.8)
-    ap.add_argument("--out", default="out/plan_and_hop.png", help="figure to write")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--terrain", default="mixed", choices=sorted(TERRAIN_FAMILIES), help="terrain family")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed")
+    ap.add_argument("--planner", default="step", help="planner label (a name, a preset or NAME@VARIANT)")
+    ap.add_argument("--speed", type=cli.positive, default=2.0, help="initial apex forward speed [m/s]")
+    ap.add_argument("--height", type=cli.positive, default=0.9, help="initial apex height above the ground [m]")
+    ap.add_argument("--goal", type=cli.number(0.5, 19.0), default=10.0, help="goal x [m] (the terrain ends at 20 m)")
+    ap.add_argument("--friction", type=cli.positive, default=0.8, help="Coulomb friction coefficient at the foot")
+    ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     args = ap.parse_args(argv)
-    if args.planner not in available():
-        ap.error(f"unknown planner {args.planner!r}; known planners: {', '.join(available())}")
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
+    from drakeslip import ApexState, SlipParams, StepLengthController
+    from planners.closed_loop import ClosedLoopConfig, run_case
+    from planners.formats.suite import Case
+    from planners.registry import make_planners
+
+    try:
+        check_label(args.planner)
+        params = SlipParams(friction=args.friction)
+        controller = StepLengthController.load_default()
+        planner = make_planners({args.planner: None}, controller)[args.planner]
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    cli.announce(argv)
     terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
-    params = SlipParams(friction=args.friction)
     apex = ApexState(0.0, terrain.height_at(0.0) + args.height, args.speed)
-    controller = StepLengthController.load_default()
-    planner = make(args.planner, **({"controller": controller} if takes(args.planner, "controller") else {}))
-    result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, EvalConfig())
+    result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, ClosedLoopConfig())
 
     for i, p in enumerate(result["plans"]):
         steps = " ".join(f"{x:.2f}" for x in p["footholds"])
@@ -52,34 +54,46 @@ def main(argv=None):
     outcome = "reached the goal" if result["success"] else f"failed: {result['failure']}"
     print(f"{args.planner} on {args.terrain} seed {args.seed}: {outcome} at x = {result['final_x']:.2f} "
           f"after {len(result['plans'])} plans")
+    write_figure(replay(result, apex, terrain, params, controller), result, args)
+    return cli.OK if result["success"] else cli.FAILED
 
-    # One logged Drake run of every commanded foothold, for the figure (the loop above ran it in pieces).
+
+def replay(result: dict, apex, terrain, params, controller):
+    """One logged Drake run of every commanded foothold, for the figure (the loop ran it in pieces; the same
+    controller from the same apexes gives the same hops)."""
+    from drakeslip.rollout import rollout
+
     commanded = [x for p in result["plans"] if "executed" in p for x in p["footholds"][:EXECUTED_PER_PLAN]]
-    sim = simulate(apex, lambda a, hop: controller.leg_angle(a, commanded[hop], terrain) if hop < len(commanded)
-                   else None, terrain, params, max_hops=max(len(commanded), 1))
-    write_figure(sim, result, args)
+    if not commanded:
+        return None
+    return rollout(apex, terrain, params, footholds=commanded, controller=controller, log=True).simulation
 
 
 def write_figure(sim, result, args):
-    import matplotlib
-    matplotlib.use("Agg")
-    from drakeslip.viz import plot_trajectory
+    import numpy as np
 
-    ax = plot_trajectory(sim)
+    from drakeslip.viz import new_axes, plot_terrain, plot_trajectory
+
+    if sim is not None:
+        ax = plot_trajectory(sim)
+        terrain = sim.terrain
+    else:  # no foothold was commanded: the terrain alone
+        terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
+        ax = new_axes((12, 3.5))
+        plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
     planned = np.array([x for p in result["plans"] for x in p["footholds"][:EXECUTED_PER_PLAN]])
     if planned.size:
-        ax.plot(planned, sim.terrain.height_at(planned) + 0.04, "v", color="#2a7ab0", ms=6, mec="black",
+        ax.plot(planned, terrain.height_at(planned) + 0.04, "v", color="#2a7ab0", ms=6, mec="black",
                 label="planned footholds", zorder=6)
     ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
     ax.set_title(f"{args.planner} planner + controller on Drake, {args.terrain} terrain seed {args.seed}: {outcome}")
     ax.figure.legends.clear()
     ax.figure.legend(loc="outside lower center", fontsize=8, ncols=8, frameon=False)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    ax.figure.savefig(out, dpi=110)
-    print(f"wrote {out}")
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    ax.figure.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,32 +1,42 @@
 """Retrain the step-length controller and write its weights (default: the committed drakeslip/weights/controller.pt).
 
-    python examples/train_controller.py --seed 0 --epochs 300
+    python3 examples/train_controller.py --seed 0 --epochs 300 --out out/controller.pt
+
+The training data is a jittered grid of apex speeds, heights, ground differences and leg angles simulated with the
+fast step map (drakeslip/controller_training.py); the weights are written atomically when training is done.
+
+Exit status: 0 when the weights were written, 2 for a usage error.
 """
 from __future__ import annotations
 
-import argparse
-import shlex
 import sys
 import time
 from dataclasses import replace
 
-import numpy as np
-
-from drakeslip import SlipParams, Terrain
 from drakeslip.controller import DEFAULT_WEIGHTS, ControllerConfig
-from drakeslip.controller_training import DataConfig, TrainConfig, make_dataset, train
+from drakeslip.controller_training import DataConfig, TrainConfig
+from drakeslip.jobs import cli
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--out", default=str(DEFAULT_WEIGHTS), help="weights file to write (atomically)")
-    ap.add_argument("--seed", type=int, default=0, help="seeds the grid jitter, the split and the network")
-    ap.add_argument("--epochs", type=int, default=TrainConfig.epochs)
-    ap.add_argument("--hidden", type=int, default=ControllerConfig.hidden)
-    ap.add_argument("--layers", type=int, default=ControllerConfig.layers)
-    ap.add_argument("--angles", type=int, default=DataConfig.angles[2], help="leg-angle grid points")
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--out", type=cli.output_file(".pt"), default=DEFAULT_WEIGHTS,
+                    help="weights file to write (atomically)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=0,
+                    help="seeds the grid jitter, the train/validation split and the network")
+    ap.add_argument("--epochs", type=cli.positive_int, default=TrainConfig.epochs, help="training epochs")
+    ap.add_argument("--hidden", type=cli.positive_int, default=ControllerConfig.hidden, help="units per hidden layer")
+    ap.add_argument("--layers", type=cli.positive_int, default=ControllerConfig.layers, help="hidden layers")
+    ap.add_argument("--angles", type=cli.positive_int, default=DataConfig.angles[2],
+                    help=f"leg-angle grid points over [{DataConfig.angles[0]}, {DataConfig.angles[1]}] rad")
+    ap.add_argument("--quiet", action="store_true", help="no per-epoch progress lines")
     args = ap.parse_args(argv)
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
+    cli.announce(argv)
+
+    import numpy as np
+
+    from drakeslip import SlipParams, Terrain
+    from drakeslip.controller_training import make_dataset, train
 
     params = SlipParams()
     data = replace(DataConfig(), angles=(DataConfig.angles[0], DataConfig.angles[1], args.angles))
@@ -35,7 +45,9 @@ def main(argv=None):
     print(f"{len(theta)} touchdowns simulated in {time.perf_counter() - t0:.1f} s")
     config = ControllerConfig(hidden=args.hidden, layers=args.layers)
     t0 = time.perf_counter()
-    controller = train(feats, theta, params, config, replace(TrainConfig(), epochs=args.epochs), seed=args.seed)
+    log = (lambda *_, **__: None) if args.quiet else print
+    controller = train(feats, theta, params, config, replace(TrainConfig(), epochs=args.epochs), seed=args.seed,
+                       log=log)
     print(f"trained in {time.perf_counter() - t0:.0f} s")
     # the training data was simulated from x = 0 over flat ground at the landing level, 0
     pred = controller.leg_angles(np.stack([np.zeros(len(theta)), feats[:, 1], feats[:, 0]], 1), feats[:, 2],
@@ -45,7 +57,8 @@ def main(argv=None):
           f"max {err.max():.2e} rad")
     controller.save(args.out)
     print(f"wrote {args.out}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

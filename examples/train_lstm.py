@@ -1,65 +1,117 @@
 """Train the CNN+LSTM footstep model on a dataset from examples/generate_dataset.py.
 
-    python3 examples/train_lstm.py --data data/footsteps --epochs 30 [--device cuda]
+    python3 examples/train_lstm.py --data data/footsteps --epochs 30 --out out/lstm.pt [--device cuda]
 
 Logs train/validation loss and top-1 / within-1-cell accuracy each epoch, checkpoints every epoch (rerun
 the same command to resume) and writes the best weights to --out (default: the committed
-planners/weights/lstm.pt that planners.make("lstm") loads).
+planners/weights/lstm.pt, the paper's model that planners.make("lstm@paper") loads).
+
+Exit status: 0 when training finished, 2 for a usage or input error (a missing or malformed dataset, damaged
+--init weights, an unavailable device).
 """
 from __future__ import annotations
 
-import argparse
 import json
 import os
 import sys
 import time
 
-import torch
+from drakeslip.jobs import cli
+from planners.learned.config import ModelConfig
+from planners.learned.training.config import TrainConfig
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
-from planners.lstm_model import ModelConfig  # noqa: E402
-from planners.lstm_train import TrainConfig, train  # noqa: E402
+SELECTORS = ("", "ditch", "no-ditch")
 
 
-def main(argv=None):
+def dataset_spec(text: str) -> str:
+    """An argument type: dataset folders, comma-separated, each FOLDER, FOLDER:ditch or FOLDER:no-ditch, each
+    holding dataset shards (*.npz)."""
+    import argparse
+
+    parts = text.split(",")
+    for part in parts:
+        folder, _, select = part.partition(":")
+        if select not in SELECTORS:
+            raise argparse.ArgumentTypeError(f"selector {select!r} in {part!r}: use FOLDER, FOLDER:ditch or "
+                                             "FOLDER:no-ditch")
+        if not os.path.isdir(folder):
+            raise argparse.ArgumentTypeError(f"no dataset folder {folder!r}")
+        if not any(f.endswith(".npz") for f in os.listdir(folder)):
+            raise argparse.ArgumentTypeError(f"no dataset shards (*.npz) in {folder!r}")
+    return text
+
+
+def checkpoint_file(text: str) -> str:
+    """An argument type: a .pt file to write, or '' for none."""
+    return "" if text == "" else str(cli.output_file(".pt")(text))
+
+
+def main(argv=None) -> int:
     d = TrainConfig()
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--data", default=d.data, help="dataset folder, or several comma-separated; FOLDER:ditch or "
-                    "FOLDER:no-ditch keeps only the sequences whose window holds a ditch, or none")
-    ap.add_argument("--init", default=d.init, help="weights to fine-tune instead of training a fresh model")
-    ap.add_argument("--out", default=d.out)
-    ap.add_argument("--checkpoint", default=d.checkpoint, help="resumable training state ('' to disable)")
-    ap.add_argument("--epochs", type=int, default=d.epochs)
-    ap.add_argument("--batch-size", type=int, default=d.batch_size)
-    ap.add_argument("--lr", type=float, default=d.lr)
-    ap.add_argument("--own-inputs", type=float, default=d.own_inputs,
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--data", type=dataset_spec, default=d.data,
+                    help="dataset folder, or several comma-separated; FOLDER:ditch or FOLDER:no-ditch keeps only the "
+                         "sequences whose window holds a ditch, or none")
+    ap.add_argument("--init", type=cli.input_file, default=None,
+                    help="weights to fine-tune instead of training a fresh model (none: a fresh model)")
+    ap.add_argument("--out", type=cli.output_file(".pt"), default=d.out, help="best weights (written atomically)")
+    ap.add_argument("--checkpoint", type=checkpoint_file, default=d.checkpoint,
+                    help="resumable training state, a .pt file ('' to disable)")
+    ap.add_argument("--epochs", type=cli.positive_int, default=d.epochs, help="training epochs (in all, when resuming)")
+    ap.add_argument("--batch-size", type=cli.positive_int, default=d.batch_size, help="sequences per batch")
+    ap.add_argument("--lr", type=cli.positive, default=d.lr, help="peak learning rate (cosine schedule)")
+    ap.add_argument("--own-inputs", type=cli.probability, default=d.own_inputs,
                     help="fraction of sequences trained on the model's own distributions as inputs")
-    ap.add_argument("--viable-weight", type=float, default=d.viable_weight,
+    ap.add_argument("--viable-weight", type=cli.probability, default=d.viable_weight,
                     help="soft labels: share of each target spread over the step's viable set (0: the paper's)")
-    ap.add_argument("--max-sequences", type=int, default=0)
-    ap.add_argument("--seed", type=int, default=d.seed)
-    ap.add_argument("--device", default="cuda" if torch.cuda.is_available() else "cpu")
-    ap.add_argument("--threads", type=int, default=0, help="torch CPU threads (0: torch's default)")
-    ap.add_argument("--hidden", type=int, default=ModelConfig.hidden, help="LSTM units per layer (110: the paper)")
-    ap.add_argument("--channels", type=int, default=ModelConfig.channels, help="CNN feature maps")
+    ap.add_argument("--max-sequences", type=cli.non_negative_int, default=d.max_sequences,
+                    help="train on the first N sequences only (0: all)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=d.seed,
+                    help="seeds the split, the batches and the network")
+    ap.add_argument("--device", default="auto", help="torch device: cpu, cuda, cuda:N, or auto (cuda when available)")
+    ap.add_argument("--threads", type=cli.non_negative_int, default=0, help="torch CPU threads (0: torch's default)")
+    ap.add_argument("--hidden", type=cli.positive_int, default=ModelConfig.hidden,
+                    help="LSTM units per layer (110: the paper)")
+    ap.add_argument("--channels", type=cli.positive_int, default=ModelConfig.channels, help="CNN feature maps")
+    ap.add_argument("--quiet", action="store_true", help="no per-epoch log lines")
     args = ap.parse_args(argv)
-    if args.hidden < 1 or args.channels < 1:
-        ap.error(f"--hidden and --channels must be positive, got {args.hidden} and {args.channels}")
-    if args.init and not os.path.isfile(args.init):
-        ap.error(f"--init: no weights file {args.init!r}")
+
+    import torch
+
+    from planners.learned.model import load_checkpoint
+    from planners.learned.training.train_lstm import train
+
+    device = "cuda" if args.device == "auto" and torch.cuda.is_available() else \
+        "cpu" if args.device == "auto" else args.device
+    try:
+        kind = torch.device(device).type
+    except RuntimeError as error:
+        ap.error(f"--device: {error}")
+    if kind == "cuda" and not torch.cuda.is_available():
+        ap.error(f"--device {device}: CUDA is not available on this machine")
+    if args.init:
+        try:
+            load_checkpoint(args.init)
+        except (OSError, ValueError) as error:
+            ap.error(f"--init: {error}")
     if args.threads:
         torch.set_num_threads(args.threads)
-    cfg = TrainConfig(data=args.data, out=args.out, checkpoint=args.checkpoint, epochs=args.epochs,
+    cfg = TrainConfig(data=args.data, out=str(args.out), checkpoint=args.checkpoint, epochs=args.epochs,
                       batch_size=args.batch_size, lr=args.lr, own_inputs=args.own_inputs, seed=args.seed,
-                      device=args.device, max_sequences=args.max_sequences, viable_weight=args.viable_weight,
-                      init=args.init)
+                      device=device, max_sequences=args.max_sequences, viable_weight=args.viable_weight,
+                      init=str(args.init) if args.init else "")
     t0 = time.perf_counter()
-    summary = train(cfg, width=(args.hidden, args.channels))
+    log = (lambda *_, **__: None) if args.quiet else print
+    try:
+        summary = train(cfg, log=log, width=(args.hidden, args.channels))
+    except ValueError as error:  # the dataset's content: mixed bins, no viable sets for --viable-weight, a width
+        ap.error(str(error))     # the --init model does not have (raised before the first epoch)
     last = summary["history"][-1] if summary["history"] else {}
     print(json.dumps({"train_seconds": round(time.perf_counter() - t0, 1), "n_train": summary["n_train"],
                       "n_val": summary["n_val"], "best_val_loss": round(summary["best_val_loss"], 4),
                       "last_epoch": last}, indent=1))
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -1,26 +1,28 @@
-"""Trajectory optimization from different seeds (issue 5): converged / Drake-verified rates, solve time, iterations.
+r"""Trajectory optimization from different seeds: converged / Drake-verified rates, solve time, iterations.
 
-    python examples/make_suites.py --families step --seed 7000 --out-dir out/fresh
-    python examples/trajopt_warmstart.py --suite out/fresh/step-7000.json --every 7 \\
+    python3 examples/make_suites.py --families step --seed 7000 --out out/fresh
+    python3 examples/trajopt_warmstart.py --suite out/fresh/step-7000.json --every 7 \
         --seeds cold,heuristic,step,lstm --out out/trajopt-step-7000.json
 
-A seed may be given as NAME@VARIANT, with options for its planner keyed by that label, so two settings of one
-seed run side by side:
+A seed is a planner label, NAME or NAME@VARIANT: a preset (lstm@paper, lstm-guided@paper: the paper's settings;
+plain lstm and lstm-guided are the best shipped ones), or any variant with options for its planner keyed by that
+label, so two settings of one seed run side by side:
 
-    python examples/trajopt_warmstart.py --suite out/fresh/step-9000.json --every 3 --cases 50 \\
-        --seeds cold,lstm-guided,lstm-guided@expert --out out/trajopt-expert.json \\
+    python3 examples/trajopt_warmstart.py --suite out/fresh/step-9000.json --every 3 --cases 50 \
+        --seeds cold,lstm-guided,lstm-guided@expert --out out/trajopt-expert.json \
         --options '{"lstm-guided@expert": {"weights": "planners/weights/lstm_expert.pt", "lazy": true,
                     "conditioning": "apex"}}'
 
 Each case is one planning query, the perception-window problem of the case's start apex toward the suite's goal
 (the target is 1 m short of the window's far edge, as for every planner). Each seed proposes footholds on the
-window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/trajopt.py); the optimized leg
+window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/trajopt/); the optimized leg
 angles are simulated open loop on the Drake hybrid simulator on the true terrain. ``verified`` = the solver
-converged and Drake completes all N hops with no failure, past the target. Finished cases are cached in
-OUT.cases.jsonl (keyed by the source and weights of drakeslip and planners, the settings and the LSTM checkpoint),
-so a killed run continues where it stopped (--no-resume starts over). --jobs N solves N (seed, case) pairs at a
-time in separate processes, with the same records as one process (solve times are wall-clock: keep N at most the
-number of cores).
+converged and Drake completes all N hops with no failure, past the target; a solve that fails is a result, not
+an error. Finished (seed, case) solves are stored in OUT.cases.jsonl, keyed by everything a record depends on
+(the source and committed weights of drakeslip and planners, the settings, the seed and its options, the SHA-256
+of every weights file the seed reads, the case), so a killed run continues where it stopped (--no-resume starts
+over). --jobs N solves N (seed, case) pairs at a time in separate processes (or on a Ray cluster with --executor
+ray), with the same records as one process (solve times are wall-clock: keep N at most the number of cores).
 """
 from __future__ import annotations
 
@@ -32,26 +34,66 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse
 import hashlib
 import json
-import shlex
 import statistics
-import sys
 from dataclasses import asdict
 from pathlib import Path
 
-from drakeslip import SlipParams
-from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
-from drakeslip.pool import results_of
-from planners.evaluation import perceived
-from planners.registry import label_options
-from planners.suite import load_suite
-from planners.trajopt import SEEDS, TrajoptConfig, check_seed, make_problem, optimize
+from drakeslip.jobs import cli
+from planners.registry import label_options, planner_name
+from planners.trajopt.config import COLLOCATIONS, SEEDS, TrajoptConfig
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
 
 
+def seed_labels(text: str) -> list[str]:
+    """An argument type: comma-separated seed labels, each a seed or NAME@VARIANT of one."""
+    labels = cli.names(text)
+    for label in labels:
+        if planner_name(label) not in SEEDS:
+            raise argparse.ArgumentTypeError(f"unknown seed {label!r}; known seeds: {', '.join(SEEDS)} "
+                                             "(each optionally NAME@VARIANT)")
+    if len(set(labels)) < len(labels):
+        raise argparse.ArgumentTypeError(f"a seed is named twice in {text!r}")
+    return labels
+
+
+def parser() -> cli.ArgumentParser:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--suite", required=True, type=cli.input_file, help="suite JSON file (format drakeslip-suite/1)")
+    ap.add_argument("--cases", type=cli.positive_int, default=None,
+                    help="how many of the selected cases (None: all)")
+    ap.add_argument("--every", type=cli.positive_int, default=1,
+                    help="take every K-th case of the suite (suites list 10 starts per terrain: K = 7 spreads "
+                         "the cases over every terrain and every start)")
+    ap.add_argument("--seeds", type=seed_labels, default="cold,heuristic,step,lstm",
+                    help=f"comma-separated, of {', '.join(SEEDS)}, each optionally NAME@VARIANT")
+    ap.add_argument("--options", default="{}",
+                    help="options for the seeds' planners as JSON keyed by seed label, e.g. "
+                         '\'{"lstm-guided@lazy": {"lazy": true}}\'')
+    ap.add_argument("--out", required=True, type=cli.output_file(".json"),
+                    help="results JSON (written atomically); the solves are stored beside it in OUT.cases.jsonl")
+    ap.add_argument("--knots", type=cli.integer(2), default=TrajoptConfig.knots,
+                    help="stance knots per hop minus one")
+    ap.add_argument("--collocation", default=TrajoptConfig.collocation, choices=COLLOCATIONS,
+                    help="stance transcription")
+    ap.add_argument("--max-hops", type=cli.positive_int, default=TrajoptConfig.max_hops,
+                    help="a seed's footholds beyond this many are dropped")
+    ap.add_argument("--starts", type=cli.positive_int, default=TrajoptConfig.starts,
+                    help="starts per case for the seeds that have several (cold: other strides; lstm-guided: other "
+                         "samples), tried until one is verified")
+    ap.add_argument("--solver", default=TrajoptConfig.solver, choices=("snopt", "ipopt"),
+                    help="snopt falls back to ipopt where it is unavailable")
+    ap.add_argument("--lstm-weights", type=cli.input_file, default=None,
+                    help="checkpoint for the lstm and lstm-guided seeds (None: each seed label's own)")
+    cli.add_parallel(ap)
+    ap.add_argument("--no-resume", action="store_true", help="ignore and replace the stored solves")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    return ap
+
+
 def source_digest() -> str:
     """A digest of the packages' source and committed weights: a changed optimizer, seed planner, model or
-    controller must not reuse cached cases."""
+    controller must not reuse stored solves."""
     import drakeslip
     import planners
 
@@ -62,6 +104,23 @@ def source_digest() -> str:
                 h.update(f.relative_to(package.parent).as_posix().encode())
                 h.update(f.read_bytes())
     return h.hexdigest()[:12]
+
+
+def file_digest(path) -> str:
+    """SHA-256 of a file's bytes: a retrained checkpoint at the same path must not reuse stored solves."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def seed_files(seed: str, options: dict | None, config: TrajoptConfig) -> dict:
+    """The weights files the seed's planner reads (the trajopt planner's ``files_read``), with their digests."""
+    from planners.registry import files_read
+
+    files = files_read("trajopt", {"seed": seed, "seed_options": options, "config": config})
+    return {name: [path, file_digest(path)] for name, path in sorted(files.items())}
 
 
 def summarize(cases: list) -> dict:
@@ -102,99 +161,82 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
-def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--suite", required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--cases", type=int, default=None, help="how many cases (default: all selected)")
-    ap.add_argument("--every", type=int, default=1,
-                    help="take every K-th case of the suite (suites list 10 starts per terrain: K = 7 spreads "
-                         "the cases over every terrain and every start)")
-    ap.add_argument("--seeds", default="cold,heuristic,step,lstm",
-                    help=f"comma-separated, of {list(SEEDS)}, each optionally NAME@VARIANT")
-    ap.add_argument("--options", default="{}",
-                    help="options for the seeds' planners as JSON keyed by seed label, e.g. "
-                         '\'{"lstm-guided@lazy": {"lazy": true}}\'')
-    ap.add_argument("--out", required=True, help="results JSON (written atomically)")
-    ap.add_argument("--knots", type=int, default=TrajoptConfig.knots, help="stance knots per hop minus one")
-    ap.add_argument("--collocation", default=TrajoptConfig.collocation, choices=("chebyshev", "hermite-simpson"))
-    ap.add_argument("--max-hops", type=int, default=TrajoptConfig.max_hops)
-    ap.add_argument("--starts", type=int, default=TrajoptConfig.starts,
-                    help="starts per case for the seeds that have several (cold: other strides; lstm-guided: other "
-                         "samples), tried until one is verified")
-    ap.add_argument("--solver", default="snopt", choices=("snopt", "ipopt"))
-    ap.add_argument("--lstm-weights", default=None,
-                    help="checkpoint for the lstm and lstm-guided seeds (default: the committed one)")
-    ap.add_argument("--jobs", type=int, default=1,
-                    help="solver processes (default 1; solve times are wall-clock, so keep it at most the cores)")
-    ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
-    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+def main(argv=None) -> int:
+    ap = parser()
     args = ap.parse_args(argv)
-    print("reproduce with: python " + " ".join(shlex.quote(a) for a in [sys.argv[0]] + (argv or sys.argv[1:])))
 
-    seeds = [s for s in args.seeds.split(",") if s]
-    if not seeds:
-        ap.error(f"--seeds names no seed; known seeds: {', '.join(SEEDS)}")
-    if args.every < 1 or (args.cases is not None and args.cases < 1) or args.jobs < 1:
-        ap.error(f"--every, --cases and --jobs must be positive, got {args.every}, {args.cases}, {args.jobs}")
+    def refuse(error):  # one line on stderr, exit status 2
+        ap.error(" ".join(str(error).split()))
+
+    if args.executor == "local" and args.address is not None:
+        refuse("--address is for --executor ray")
+    seeds = args.seeds
     try:
         config = TrajoptConfig(knots=args.knots, collocation=args.collocation, max_hops=args.max_hops,
-                               solver=args.solver, lstm_weights=args.lstm_weights, starts=args.starts)
+                               solver=args.solver, starts=args.starts,
+                               lstm_weights=str(args.lstm_weights) if args.lstm_weights else None)
         options = label_options(args.options, seeds, kind="seed")
-        for seed in seeds:
-            check_seed(seed, options.get(seed), config)
-    except ValueError as exc:
-        ap.error(str(exc))
+    except ValueError as error:
+        refuse(error)
+    from planners.formats.suite import load_suite
+
     try:
         suite = load_suite(args.suite)
-    except (OSError, ValueError) as error:  # a missing or malformed suite file
-        ap.error(str(error))
-    cases = list(suite.cases[::args.every])[:args.cases]
-    params = SlipParams(friction=suite.friction)
+    except (OSError, ValueError) as error:  # an unreadable or malformed suite file
+        refuse(error)
+    # the seeds' planners are built (and kept for the solves in this process): bad options or weights stop here
+    from planners.trajopt.seeds import check_seed
 
-    def stamp(path):  # a retrained checkpoint at the same path must not reuse cached lstm cases
-        st = Path(path).stat()
-        return f"{st.st_size}:{st.st_mtime_ns}"
-
-    weights_stamp = stamp(args.lstm_weights) if args.lstm_weights else ""
-    code = source_digest()
-    setup = json.dumps([asdict(config), weights_stamp, code, suite.goal_x, suite.friction], sort_keys=True,
-                       default=str)
-    seed_setup = {s: [options.get(s, {}), stamp(options[s]["weights"]) if "weights" in options.get(s, {}) else ""]
-                  for s in seeds}
-    key = lambda seed, case: hashlib.sha256(
-        json.dumps([setup, seed, seed_setup[seed], case.id, case.terrain.to_dict(), list(case.apex)],
-                   sort_keys=True).encode()).hexdigest()[:20]
-    cache_path = Path(args.out + ".cases.jsonl")
-    if args.no_resume and cache_path.exists():
-        cache_path.unlink()
-    cache = read_jsonl_cache(cache_path, lambda e: e["key"], lambda e: e["record"])
+    try:
+        for seed in seeds:
+            check_seed(seed, options.get(seed), config)
+        files = {seed: seed_files(seed, options.get(seed), config) for seed in seeds}
+    except (OSError, ValueError) as error:
+        refuse(error)
+    executor = cli.executor(args)
+    cli.announce(argv)
 
     from tqdm import tqdm
 
-    problems = [make_problem(case.apex, perceived(case.terrain, case.apex.x), suite.goal_x, params) for case in cases]
-    keys = {(s, i): key(s, case) for i, case in enumerate(cases) for s in seeds}
-    records = {pair: cache[k] for pair, k in keys.items() if k in cache}
+    from drakeslip import SlipParams
+    from drakeslip.jobs.runner import JsonLinesStore, remove, run, write_json
+    from planners.trajopt.planner import make_problem
+    from planners.trajopt.solve import optimize
+
+    cases = list(suite.cases[::args.every])[:args.cases]
+    params = SlipParams(friction=suite.friction)
+    setup = [FORMAT, asdict(config), source_digest(), suite.goal_x, suite.friction]
+
+    def key(seed, case) -> str:
+        return hashlib.sha256(json.dumps([setup, seed, options.get(seed, {}), files[seed], case.id,
+                                          case.terrain.to_dict(), list(case.apex)], sort_keys=True,
+                                         default=str).encode()).hexdigest()[:20]
+
+    store_path = Path(str(args.out) + ".cases.jsonl")
+    if args.no_resume:
+        remove(store_path)
+    problems = [make_problem(case.apex, case.terrain.perceived(case.apex.x), suite.goal_x, params) for case in cases]
+    pairs = {key(s, case): (s, i) for i, case in enumerate(cases) for s in seeds}  # case ids are unique
     # case-major: every seed sees the same cases at any point of a partial run
-    todo = [(s, i) for i in range(len(cases)) for s in seeds if (s, i) not in records]
-    tasks = [((s, i), (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
-             for s, i in todo]
-    bar = tqdm(total=len(cases) * len(seeds), initial=len(records), disable=args.quiet, unit="solve", desc=suite.name)
-    with open_jsonl_cache(cache_path) as sink:
-        for (s, i), result in results_of(optimize, tasks, args.jobs):
-            records[(s, i)] = {"id": cases[i].id, **result}
-            append_jsonl(sink, {"key": keys[(s, i)], "record": records[(s, i)]})
-            bar.update(1)
-            bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
+    tasks = [(k, (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
+             for k, (s, i) in pairs.items()]
+    records = {}
+    bar = tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=suite.name)
+    for k, result in run(optimize, tasks, JsonLinesStore(store_path), executor):
+        s, i = pairs[k]
+        records[(s, i)] = {"id": cases[i].id, **result}
+        bar.update(1)
+        bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
     bar.close()
     done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
                "every": args.every, "config": asdict(config), "options": options,
                "seeds": {s: summarize(done[s]) for s in seeds}}
-    with atomic_write(args.out, "w") as f:
-        json.dump(results, f, indent=1)
+    write_json(args.out, results)
     print(table(results))
     print(f"wrote {args.out}")
+    return cli.OK
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

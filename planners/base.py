@@ -1,9 +1,11 @@
 """What every planner shares: the Plan it returns, its budget, and input checks (one OMPL-style interface)."""
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from abc import ABC, abstractmethod
+from pathlib import Path
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -37,7 +39,8 @@ class Plan:
     """The result of ``planner.plan``: ``success`` with the best sequence in ``footholds``/``leg_angles``/
     ``apexes`` (and up to d ``alternatives`` for the search planners), or ``success=False`` and a
     ``message`` saying why no plan was found. ``target_x`` is what the plan aimed to pass: the goal, or the
-    edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations."""
+    edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations.
+    ``time_limited``: the wall-clock safety limit stopped the planner (a result that depends on the machine)."""
 
     planner: str
     success: bool
@@ -47,6 +50,7 @@ class Plan:
     nodes_expanded: int = 0
     message: str = ""
     sequences: list = field(default_factory=list)
+    time_limited: bool = False
 
     @property
     def best(self) -> FootstepSequence | None:
@@ -72,22 +76,31 @@ class Plan:
         """The per-planning-call record the evaluation writes."""
         return {"success": self.success, "message": self.message, "ode_calls": self.ode_calls,
                 "t_plan_s": self.time_s, "nodes_expanded": self.nodes_expanded, "target_x": self.target_x,
-                "footholds": self.footholds.tolist()}
+                "footholds": self.footholds.tolist(), "time_limited": self.time_limited}
 
 
 @dataclass(frozen=True)
 class Budget:
-    """A planner stops after ``max_nodes`` node expansions (per search attempt) or ``max_time_s`` seconds
-    (for the whole call), whichever comes first."""
+    """Termination conditions. A search attempt stops after ``max_nodes`` node expansions or ``max_ode_calls``
+    step-map calls (None: no such limit): deterministic budgets, so a plan, its nodes and its ODE calls are the
+    same on any machine. ``max_time_s`` is a safety limit on the wall-clock time of the whole call, reported in
+    ``Plan.time_limited`` when it binds. The default node budget lets a Step-space call that finds no plan search
+    for about as long as the paper's 2 s budget did (1-2 ms a node on one core)."""
 
-    max_nodes: int = 3000
-    max_time_s: float = 2.0
+    max_nodes: int = 1000
+    max_ode_calls: int | None = None
+    max_time_s: float = 60.0
 
     def __post_init__(self):
-        if not (isinstance(self.max_nodes, int) and self.max_nodes >= 1):
+        if isinstance(self.max_nodes, bool) or not (isinstance(self.max_nodes, int) and self.max_nodes >= 1):
             raise ValueError(f"max_nodes must be a positive integer, got {self.max_nodes!r}")
-        if not (isinstance(self.max_time_s, (int, float)) and math.isfinite(self.max_time_s) and self.max_time_s > 0):
-            raise ValueError(f"max_time_s must be a positive number of seconds, got {self.max_time_s!r}")
+        calls = self.max_ode_calls
+        if calls is not None and (isinstance(calls, bool) or not isinstance(calls, int) or calls < 1):
+            raise ValueError(f"max_ode_calls must be a positive integer or None, got {calls!r}")
+        seconds = self.max_time_s
+        if isinstance(seconds, bool) or not (isinstance(seconds, (int, float)) and math.isfinite(seconds)
+                                             and seconds > 0):
+            raise ValueError(f"max_time_s must be a positive number of seconds, got {seconds!r}")
 
 
 @dataclass(frozen=True)
@@ -108,9 +121,9 @@ class Planner(ABC):
 
     name = "planner"
 
-    def __init__(self, max_nodes: int = Budget.max_nodes, max_time_s: float = Budget.max_time_s,
-                 horizon: float = WINDOW_AHEAD):
-        self.budget = Budget(max_nodes, max_time_s)
+    def __init__(self, max_nodes: int = Budget.max_nodes, max_ode_calls: int | None = Budget.max_ode_calls,
+                 max_time_s: float = Budget.max_time_s, horizon: float = WINDOW_AHEAD):
+        self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
         if not (math.isfinite(horizon) and horizon > TARGET_MARGIN):
             raise ValueError(f"horizon must be a finite distance above {TARGET_MARGIN} m, got {horizon!r}")
         self.horizon = float(horizon)
@@ -150,3 +163,14 @@ class Planner(ABC):
     @abstractmethod
     def _plan(self, problem: Problem) -> Plan:
         ...
+
+    @classmethod
+    def files_read(cls, options: dict) -> dict:
+        """The files a planner built with ``options`` reads (its weights), by option name: every option, given or
+        left at its default, whose value names an existing file."""
+        files = {}
+        for name, parameter in inspect.signature(cls).parameters.items():
+            value = options.get(name, parameter.default)
+            if isinstance(value, (str, Path)) and Path(value).is_file():
+                files[name] = str(value)
+        return files

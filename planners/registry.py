@@ -1,26 +1,118 @@
-"""Planner registry: ``make(name, **options)`` builds any registered planner by name."""
+"""Planner registry: ``make(label, **options)`` builds any planner by its label.
+
+A label is a planner's name (``step``) or ``NAME@VARIANT``: the same planner with other options, so two settings
+run side by side in one evaluation. A variant can be a preset, a named setting kept here (``lstm@paper``, the
+paper's literal LSTM planner); options given for a label update its preset. A name alone runs the planner's
+defaults, which are the best settings this project ships.
+
+The planners are imported when first made, so listing them, or a script's ``--help``, starts no torch or pydrake.
+"""
 from __future__ import annotations
 
+import importlib
+import inspect
 import json
 
-_PLANNERS: dict = {}
+from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS
 
+_PLANNERS = {
+    "heuristic": "planners.search.heuristic:HeuristicPlanner",
+    "angle": "planners.search.angle_space:AngleSpacePlanner",
+    "step": "planners.search.step_space:StepSpacePlanner",
+    "lstm": "planners.learned.lstm:LSTMPlanner",
+    "lstm-guided": "planners.learned.lstm_guided:LSTMGuidedPlanner",
+    "trajopt": "planners.trajopt.planner:TrajoptPlanner",
+}
 
-def register(name: str):
-    """Class decorator: ``@register("angle")`` makes the class available as ``make("angle")``."""
-    def add(cls):
-        if name in _PLANNERS:
-            raise ValueError(f"a planner named {name!r} is already registered")
-        cls.name = name
-        _PLANNERS[name] = cls
-        return cls
-    return add
+PRESETS = {
+    # the paper's LSTM planner: its model (Table I data), the mode fed back for up to 12 steps
+    "lstm@paper": {"weights": str(PAPER_WEIGHTS), "max_steps": 12, "ranker": None},
+    # the default without its learned re-ranker: the expert model's mode, one step ahead
+    "lstm@dagger": {"ranker": None},
+    # the paper's LSTM-guided search: its model, path-conditioned, every sampled child simulated at once
+    "lstm-guided@paper": {"weights": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path"},
+    # the default search sampling the expert model instead (the trajectory optimizer's best seed)
+    "lstm-guided@expert": {"weights": str(EXPERT_WEIGHTS)},
+}
 
 
 def planner_name(label: str) -> str:
-    """The registered planner behind a label: ``NAME`` or ``NAME@VARIANT`` (a variant is the same planner with
-    other options, so two settings can run side by side in one evaluation)."""
+    """The registered planner behind a label: ``NAME`` or ``NAME@VARIANT``."""
     return label.split("@", 1)[0]
+
+
+def available() -> list[str]:
+    """The registered planner names."""
+    return sorted(_PLANNERS)
+
+
+def labels() -> list[str]:
+    """Every name and preset label."""
+    return sorted([*_PLANNERS, *PRESETS])
+
+
+def register(name: str, cls) -> None:
+    """Add a planner class (or ``"module:Class"``) under ``name``, so ``make(name)`` builds it."""
+    if name in _PLANNERS:
+        raise ValueError(f"a planner named {name!r} is already registered")
+    if "@" in name:
+        raise ValueError(f"a planner name cannot contain '@' (that marks a variant), got {name!r}")
+    _PLANNERS[name] = cls
+
+
+def planner_class(name: str):
+    """The class registered as ``name`` (imported now if needed)."""
+    if name not in _PLANNERS:
+        raise ValueError(f"unknown planner {name!r}; known planners: {', '.join(available())}")
+    target = _PLANNERS[name]
+    if isinstance(target, str):
+        module, _, attr = target.partition(":")
+        target = _PLANNERS[name] = getattr(importlib.import_module(module), attr)
+    return target
+
+
+def check_label(label: str) -> str:
+    """``label`` if its planner is registered; else ValueError naming the known planners and presets."""
+    if not isinstance(label, str) or planner_name(label) not in _PLANNERS:
+        raise ValueError(f"unknown planner {label!r}; known planners: {', '.join(available())}; "
+                         f"presets: {', '.join(PRESETS)} (any NAME@VARIANT takes its options from --options)")
+    return label
+
+
+def options_for(label: str, options: dict | None = None) -> dict:
+    """The options ``label`` runs with: its preset's (none for a plain name), updated by ``options``."""
+    return {**PRESETS.get(label, {}), **(options or {})}
+
+
+def takes(name: str, option: str) -> bool:
+    """Whether the planner registered as ``name`` accepts ``option`` (e.g. a shared ``controller``)."""
+    return name in _PLANNERS and option in inspect.signature(planner_class(name)).parameters
+
+
+def make(label: str, **options):
+    """A planner by label with its options, e.g. ``make("angle", branching=20, seed=0)`` or ``make("lstm@paper")``."""
+    cls = planner_class(planner_name(check_label(label)))
+    return cls(**options_for(label, options))
+
+
+def files_read(label: str, options: dict | None = None) -> dict:
+    """The files (weights) the planner ``label`` reads when built with ``options``, by option name."""
+    return planner_class(planner_name(check_label(label))).files_read(options_for(label, options))
+
+
+def make_planners(specs: dict, controller=None) -> dict:
+    """The planners of a run by label, ``specs`` mapping labels to options (or None), sharing ``controller`` with
+    those that take one. An unknown label, an option a planner does not take, or a bad value is a ValueError
+    naming the label."""
+    planners = {}
+    for label, options in specs.items():
+        name = planner_name(check_label(label))
+        shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
+        try:
+            planners[label] = make(label, **shared, **(options or {}))
+        except (TypeError, ValueError, OSError) as error:  # TypeError: an unknown keyword; OSError: missing weights
+            raise ValueError(f"options for {label}: {error}") from error
+    return planners
 
 
 def label_options(text: str, labels: list, kind: str = "planner") -> dict:
@@ -32,21 +124,3 @@ def label_options(text: str, labels: list, kind: str = "planner") -> dict:
     if not isinstance(options, dict) or any(k not in labels or not isinstance(v, dict) for k, v in options.items()):
         raise ValueError(f"--options must map {kind} labels among {labels} to option objects, got {text!r}")
     return options
-
-
-def available() -> list[str]:
-    return sorted(_PLANNERS)
-
-
-def takes(name: str, option: str) -> bool:
-    """Whether the planner registered as ``name`` accepts ``option`` (e.g. a shared ``controller``)."""
-    import inspect
-
-    return name in _PLANNERS and option in inspect.signature(_PLANNERS[name]).parameters
-
-
-def make(name: str, **options):
-    """A planner by name with its options, e.g. ``make("angle", branching=20, seed=0)``."""
-    if name not in _PLANNERS:
-        raise ValueError(f"unknown planner {name!r}; known planners: {', '.join(available())}")
-    return _PLANNERS[name](**options)

@@ -17,3 +17,28 @@ def example():
         spec.loader.exec_module(module)
         return module
     return load
+
+
+@pytest.fixture
+def run_script(example, capsys):
+    """Runs examples/NAME.py's ``main`` in this process with the given arguments; returns (exit status, stdout,
+    stderr). A usage error's SystemExit gives its status."""
+    def run(name: str, *args):
+        module = example(name)
+        try:
+            code = module.main([str(a) for a in args])
+        except SystemExit as stop:
+            code = stop.code
+        captured = capsys.readouterr()
+        return code, captured.out, captured.err
+    return run
+
+
+def pytest_collection_modifyitems(config, items):
+    """Timing benchmarks run only with --benchmark-only: a plain run leaves them out, so it tests, not times."""
+    if config.getoption("benchmark_only", False):
+        return
+    benchmarks = [item for item in items if "benchmark" in getattr(item, "fixturenames", ())]
+    if benchmarks:
+        config.hook.pytest_deselected(items=benchmarks)
+        items[:] = [item for item in items if item not in benchmarks]

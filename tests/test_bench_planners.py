@@ -2,12 +2,10 @@
 training step of the footstep model."""
 import pytest
 
-import planners
 from drakeslip import ApexState, SlipParams, ditch_world
-from planners.evaluation import perceived
-from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS
+from planners.registry import labels, make_planners
 
-TERRAIN = perceived(ditch_world(1003), 0.0)
+TERRAIN = ditch_world(1003).perceived(0.0)
 APEX = (0.0, 0.9, 2.0)
 PARAMS = SlipParams(friction=0.8)
 
@@ -18,19 +16,12 @@ def controller():
     return StepLengthController.load_default()
 
 
-# beyond-the-paper settings of LSTM-guided and of the mode planner, side by side with the paper's (README)
-VARIANTS = {"lstm-guided@lazy": {"lazy": True}, "lstm-guided@lazy-apex": {"lazy": True, "conditioning": "apex"},
-            "lstm@expert-1": {"weights": EXPERT_WEIGHTS, "max_steps": 1},
-            "lstm@ranker": {"weights": EXPERT_WEIGHTS, "max_steps": 1, "ranker": RANKER_WEIGHTS}}
-
-
-@pytest.mark.parametrize("name", ["heuristic", "angle", "step", "lstm", "lstm-guided", *VARIANTS])
-def test_bench_one_plan(benchmark, controller, name):
-    base = name.split("@")[0]
-    planner = planners.make(base, **({"controller": controller} if planners.takes(base, "controller") else {}),
-                            **VARIANTS.get(name, {}))
-    plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=5 if name != "heuristic" else 50,
-                              warmup_rounds=1)
+@pytest.mark.parametrize("label", [label for label in labels() if label != "trajopt"])  # trajopt: test_trajopt
+def test_bench_one_plan(benchmark, controller, label):
+    """Every planner name and preset, the paper's (@paper) beside the defaults."""
+    planner = make_planners({label: None}, controller)[label]
+    plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS),
+                              rounds=5 if label != "heuristic" else 50, warmup_rounds=1)
     assert plan.success, plan.message
     benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
                                 footholds=len(plan.footholds))
@@ -41,8 +32,8 @@ def test_bench_one_training_step(benchmark):
     with the share of sequences fed the model's own distributions)."""
     import torch
 
-    from planners.lstm_model import FootstepModel
-    from planners.lstm_train import batch_loss
+    from planners.learned.model import FootstepModel
+    from planners.learned.training.train_lstm import batch_loss
 
     torch.manual_seed(0)
     model = FootstepModel()
@@ -78,27 +69,21 @@ def test_bench_lstm_step(benchmark):
     """One step of the footstep model in numpy (what LSTM-guided pays per node it expands)."""
     import numpy as np
 
-    from planners.lstm_inputs import encode_window
-    from planners.lstm_planner import FootstepDistribution, load_model
+    from planners.learned.inputs import encode_window
+    from planners.learned.lstm import FootstepDistribution, load_model
 
-    net = FootstepDistribution(load_model())
+    net = FootstepDistribution(load_model())  # the paper's model
     terrain, apex, s0, _ = net.inputs(encode_window(TERRAIN, ApexState(*APEX)))
     state = net.model.initial_state(apex)
     logits, _ = benchmark(net.model.step, terrain, s0, state)
     assert logits.shape == (1, 110) and np.all(np.isfinite(logits))
 
 
-DRAKE_PLANNING = {"step": {}, "lstm-guided": {},
-                  "lstm-guided@subcell-lazy-apex": {"weights": SUBCELL_WEIGHTS, "lazy": True, "conditioning": "apex"}}
-
-
-@pytest.mark.parametrize("name", list(DRAKE_PLANNING))
-def test_bench_one_plan_on_the_drake_step_map(benchmark, controller, name):
+@pytest.mark.parametrize("label", ["step", "lstm-guided@paper", "lstm-guided"])
+def test_bench_one_plan_on_the_drake_step_map(benchmark, controller, label):
     """The same plan with every candidate hop simulated on Drake (``step_map="drake"``), where a plan's time is
-    its ODE calls as for the paper's planners (docs/results.md, "Planning on the Drake model"). One round each:
-    a Step-space plan takes tens of seconds."""
-    planner = planners.make(name.split("@")[0], controller=controller, step_map="drake", max_time_s=300,
-                            **DRAKE_PLANNING[name])
+    its ODE calls as for the paper's planners. One round each: a Step-space plan takes tens of seconds."""
+    planner = make_planners({label: {"step_map": "drake", "max_time_s": 300}}, controller)[label]
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=1, iterations=1)
     assert plan.success, plan.message
     benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,

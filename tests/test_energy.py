@@ -67,7 +67,7 @@ def test_energy_is_constant_along_the_drake_trajectory_in_flight_and_stance():
     sample of a three-hop Drake run, so the stance equations and the reset maps agree with it."""
     from drakeslip.dynamics import mechanical_energy
     from drakeslip.hopper import Mode
-    from drakeslip.simulate import simulate
+    from drakeslip.simulation import simulate
 
     sim = simulate((0.0, 0.6, 2.0), [0.25, 0.28, 0.22], ds.Terrain.flat(), PARAMS)
     assert sim.ok and len(sim.apexes) == 3, sim.failure

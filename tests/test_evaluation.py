@@ -7,8 +7,11 @@ from pathlib import Path
 import pytest
 
 import planners
-from planners import evaluation
-from planners.suite import load_suite, make_suite, save_suite
+from drakeslip.jobs.executors import make_executor
+from planners.closed_loop import ClosedLoopConfig
+from planners.formats.suite import load_suite, make_suite, save_suite
+from planners.registry import PRESETS, make_planners
+from verification import benchmark, report
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -64,11 +67,13 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert run.returncode == 0, run.stderr
     assert "Success %" in run.stdout and "step" in run.stdout
     results = json.loads(out.read_text())
-    assert set(results) == {"suite", "planners"}
+    assert set(results) == {"suite", "config", "options", "planners"}
     assert set(results["planners"]) == {"heuristic", "step"}
     for block in results["planners"].values():
-        assert set(block) == {"success_rate", "ode_calls_mean", "ode_calls_median", "t_plan_mean_s", "t_plan_median_s",
-                              "nodes_expanded_mean", "footholds_mean", "cases"}
+        assert set(block) == {"success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
+                              "t_plan_mean_s", "t_plan_median_s", "nodes_expanded_mean", "footholds_mean",
+                              "time_limited_calls", "cases"}
+        assert block["success_interval"][0] <= block["success_rate"] <= block["success_interval"][1]
         assert len(block["cases"]) == 2
         for case in block["cases"]:
             assert set(case) == {"id", "success", "failure", "final_x", "plans"}
@@ -79,18 +84,18 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert len(cache.read_text().splitlines()) == 4
     with cache.open("a") as f:
         f.write('{"key": "cut sh')  # a line cut short by a kill is ignored
-    again = evaluation.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
-                                progress=False, config=evaluation.EvalConfig())
+    again = benchmark.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
+                               progress=False, config=ClosedLoopConfig())
     assert again == results
 
 
 def test_every_kth_case_is_evaluated(tmp_path):
     suite = make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.8, 0.9))
-    results = evaluation.evaluate(suite, {"heuristic": {}}, n_cases=2, every=3, progress=False,
-                                  config=evaluation.EvalConfig(backend="fast"))
+    results = benchmark.evaluate(suite, {"heuristic": {}}, n_cases=2, every=3, progress=False,
+                                  config=ClosedLoopConfig(backend="fast"))
     assert [c["id"] for c in results["planners"]["heuristic"]["cases"]] == [suite.cases[0].id, suite.cases[3].id]
     with pytest.raises(ValueError, match="every must be a positive integer, got 0"):
-        evaluation.evaluate(suite, {"heuristic": {}}, every=0, progress=False)
+        benchmark.evaluate(suite, {"heuristic": {}}, every=0, progress=False)
 
 
 def test_ratios_to_a_baseline_per_planning_call():
@@ -99,27 +104,25 @@ def test_ratios_to_a_baseline_per_planning_call():
                 "plans": [{"ode_calls": o, "t_plan_s": s, "success": f, "nodes_expanded": o // 10,
                            "footholds": [1.0] * (o // 50 if f else 0)} for o, s, f in zip(ode, t, found)]}
     results = {"suite": "s", "planners": {
-        "step": evaluation.summarize([case([100, 300], [1.0, 9.0], [True, False])]),
-        "guided": evaluation.summarize([case([50, 50], [0.5, 3.0], [True, False])])}}
+        "step": report.summarize([case([100, 300], [1.0, 9.0], [True, False])]),
+        "guided": report.summarize([case([50, 50], [0.5, 3.0], [True, False])])}}
     # nodes expanded per call, and footholds per plan over the calls that found one
     assert (results["planners"]["step"]["nodes_expanded_mean"], results["planners"]["step"]["footholds_mean"]) == (20, 2)
-    assert "guided" in evaluation.table(results).splitlines()[-1].split()[0]
-    row = evaluation.ratios(results, "step").splitlines()[-1].split()
+    assert "guided" in report.table(results).splitlines()[-1].split()[0]
+    row = report.ratios(results, "step").splitlines()[-1].split()
     # ODE mean and median 200/50; time mean 5/1.75; over the calls that found a plan 1/0.5; median 5/1.75
     assert row == ["guided", "4.00x", "4.00x", "2.86x", "2.00x", "2.86x"]
     with pytest.raises(ValueError, match="baseline 'angle' is not among"):
-        evaluation.ratios(results, "angle")
+        report.ratios(results, "angle")
 
 
-def test_unknown_planner_on_the_cli(tmp_path):
-    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "x.json",
-                          "--planners", "warp", "--out", str(tmp_path / "o.json")],
-                         capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert run.returncode != 0 and "unknown planner" in run.stderr
-    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "x.json",
-                          "--planners", "step", "--baseline", "angle", "--out", str(tmp_path / "o.json")],
-                         capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert run.returncode != 0 and "--baseline 'angle' is not among --planners ['step']" in run.stderr
+def test_unknown_planner_on_the_cli(tmp_path, run_script):
+    code, _, err = run_script("evaluate", "--suite", ROOT / "suites/step.json", "--planners", "warp", "--out",
+                              tmp_path / "o.json")
+    assert code == 2 and "unknown planner 'warp'" in err
+    code, _, err = run_script("evaluate", "--suite", ROOT / "suites/step.json", "--planners", "step", "--baseline",
+                              "angle", "--out", tmp_path / "o.json")
+    assert code == 2 and "--baseline 'angle' is not among --planners ['step']" in err
 
 
 @pytest.mark.parametrize("options, message", [
@@ -128,29 +131,28 @@ def test_unknown_planner_on_the_cli(tmp_path):
     ("{step", "--options is not valid JSON"),
     ('{"step": 3}', "--options must map planner labels among ['step'] to option objects"),
 ])
-def test_bad_planner_options_on_the_cli_are_named_before_any_case_runs(tmp_path, options, message):
-    run = subprocess.run([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", "suites/step.json",
-                          "--planners", "step", "--options", options, "--out", str(tmp_path / "o.json")],
-                         capture_output=True, text=True, cwd=ROOT, timeout=120)
-    assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
+def test_bad_planner_options_on_the_cli_are_named_before_any_case_runs(tmp_path, run_script, options, message):
+    code, _, err = run_script("evaluate", "--suite", ROOT / "suites/step.json", "--planners", "step", "--options",
+                              options, "--out", tmp_path / "o.json")
+    assert code == 2 and message in err and len(err.splitlines()) == 1
     assert not (tmp_path / "o.json").exists()
 
 
-@pytest.mark.parametrize("script, args", [("evaluate.py", ["--planners", "step", "--out", "o.json"]),
-                                           ("paper_tables.py", ["--planners", "step", "--step", "suites/step.json",
-                                                                "--out-dir", "."])])
+@pytest.mark.parametrize("script, args", [("evaluate", ["--planners", "step", "--out", "o.json"]),
+                                           ("paper_tables", ["--planners", "step", "--step", "suites/step.json",
+                                                             "--out", "."])])
 @pytest.mark.parametrize("text, message", [
     ('{"format": "drakeslip-suite/1", "cases": 3', "is not valid JSON"),
     ("[1, 2]", "must be an object, got list"),
 ])
-def test_a_malformed_suite_file_is_named_on_the_cli(tmp_path, script, args, text, message):
+def test_a_malformed_suite_file_is_named_on_the_cli(tmp_path, run_script, script, args, text, message):
     (tmp_path / "bad.json").write_text(text)
-    flag = "--ditch" if script == "paper_tables.py" else "--suite"
-    run = subprocess.run([sys.executable, str(ROOT / "examples" / script), flag, str(tmp_path / "bad.json"),
-                          *[str(ROOT / a) if a.startswith("suites/") else a for a in args]],
-                         capture_output=True, text=True, cwd=tmp_path, timeout=120)
-    assert run.returncode == 2 and f"suite file {tmp_path / 'bad.json'}" in run.stderr and message in run.stderr
-    assert "Traceback" not in run.stderr and not (tmp_path / "o.json").exists()
+    flag = "--ditch" if script == "paper_tables" else "--suite"
+    code, _, err = run_script(script, flag, tmp_path / "bad.json",
+                              *[ROOT / a if a.startswith("suites/") else tmp_path / a if a in ("o.json", ".") else a
+                                for a in args])
+    assert code == 2 and f"suite file {tmp_path / 'bad.json'}" in err and message in err
+    assert len(err.splitlines()) == 1 and not (tmp_path / "o.json").exists()
 
 
 def test_evaluate_refuses_a_bad_planner_option_by_label_before_any_case(tmp_path):
@@ -158,8 +160,8 @@ def test_evaluate_refuses_a_bad_planner_option_by_label_before_any_case(tmp_path
     cache = tmp_path / "cache.jsonl"
     for jobs in (1, 2):
         with pytest.raises(ValueError, match=r"options for step@fine: .*spacing must be a positive distance"):
-            evaluation.evaluate(suite, {"step": {}, "step@fine": {"spacing": 0.0}}, n_cases=1, jobs=jobs,
-                                cache_path=cache, progress=False)
+            benchmark.evaluate(suite, {"step": {}, "step@fine": {"spacing": 0.0}}, n_cases=1,
+                               executor=make_executor("local", jobs), cache_path=cache, progress=False)
         assert not cache.exists()
 
 
@@ -168,42 +170,44 @@ def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     suite_path = tmp_path / "suite.json"
     suite_path.write_text(json.dumps(_doc()))
     specs = {"heuristic": {}, "heuristic@noshift": {"max_shift": 0.0}}
-    results = evaluation.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
-                                  config=evaluation.EvalConfig(backend="fast"))
+    results = benchmark.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
+                                  config=ClosedLoopConfig(backend="fast"))
     assert set(results["planners"]) == {"heuristic", "heuristic@noshift"}
     assert planners.planner_name("heuristic@noshift") == "heuristic"
     suite = load_suite(suite_path)
-    keys = {evaluation.fingerprint(suite, label, opts, evaluation.EvalConfig(), None) for label, opts in specs.items()}
+    keys = {benchmark.fingerprint(suite, label, opts, ClosedLoopConfig(), None) for label, opts in specs.items()}
     assert len(keys) == 2
-    assert "heuristic@noshift" in evaluation.table(results)
+    assert "heuristic@noshift" in report.table(results)
 
 
-def test_a_preset_label_runs_with_its_settings_unless_given_options():
-    from planners.presets import PRESETS
-
-    built = evaluation.make_planners({"lstm@ranked": {}, "lstm-guided@beyond": {}, "step@ranked": {},
-                                      "lstm@ranked-3": {}})
-    assert built["lstm@ranked"].ranker is not None and built["lstm@ranked"].max_steps == 1
-    assert built["lstm-guided@beyond"].lazy and built["lstm-guided@beyond"].conditioning == "apex"
-    assert built["lstm@ranked-3"].ranker is None  # not a preset: the planner's defaults
-    assert evaluation.make_planners({"lstm@ranked": {"max_steps": 2}})["lstm@ranked"].ranker is None  # replaced
+def test_defaults_are_the_best_settings_and_the_papers_are_presets():
+    built = make_planners({"lstm": {}, "lstm-guided": {}, "lstm@paper": {}, "lstm-guided@paper": {},
+                           "lstm@other": {}})
+    assert built["lstm"].ranker is not None and built["lstm"].max_steps == 1
+    assert built["lstm-guided"].lazy and built["lstm-guided"].conditioning == "apex"
+    assert built["lstm@paper"].ranker is None and built["lstm@paper"].max_steps == 12
+    assert not built["lstm-guided@paper"].lazy and built["lstm-guided@paper"].conditioning == "path"
+    assert built["lstm@other"].ranker is not None  # not a preset: the planner's defaults
+    # options given for a preset label update the preset
+    updated = make_planners({"lstm@paper": {"max_steps": 2}})["lstm@paper"]
+    assert updated.max_steps == 2 and updated.ranker is None
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    results = evaluation.evaluate(suite, {"lstm@dagger": {}}, n_cases=1, progress=False,
-                                  config=evaluation.EvalConfig(backend="fast"))
-    explicit = evaluation.evaluate(suite, {"lstm@dagger": PRESETS["lstm@dagger"]}, n_cases=1, progress=False,
-                                   config=evaluation.EvalConfig(backend="fast"))
+    results = benchmark.evaluate(suite, {"lstm@dagger": {}}, n_cases=1, progress=False,
+                                 config=ClosedLoopConfig(backend="fast"))
+    explicit = benchmark.evaluate(suite, {"lstm@dagger": PRESETS["lstm@dagger"]}, n_cases=1, progress=False,
+                                  config=ClosedLoopConfig(backend="fast"))
     strip = lambda r: [[p["footholds"] for p in c["plans"]] for c in r["planners"]["lstm@dagger"]["cases"]]
     assert strip(results) == strip(explicit)
 
 
 def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
     """Retraining the ranker at the same path must not reuse cached cases (nor may the LSTM weights)."""
-    from planners.lstm_planner import RANKER_WEIGHTS
+    from planners.checkpoints import RANKER_WEIGHTS
 
     suite = make_suite("ditch", seed=7, n_terrains=1)
     ranker = tmp_path / "ranker.pt"
     ranker.write_bytes(RANKER_WEIGHTS.read_bytes())
-    key = lambda: evaluation.fingerprint(suite, "lstm@r", {"ranker": str(ranker)}, evaluation.EvalConfig(), None)
+    key = lambda: benchmark.fingerprint(suite, "lstm@r", {"ranker": str(ranker)}, ClosedLoopConfig(), None)
     before = key()
     assert key() == before
     ranker.write_bytes(RANKER_WEIGHTS.read_bytes() + b"retrained")
@@ -212,23 +216,23 @@ def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
 
 def test_the_cache_key_follows_the_checkpoint_a_trajopt_seed_reads(tmp_path):
     """The trajectory optimizer as a planner reads its seed planner's LSTM: retraining it invalidates cached cases."""
-    from planners.lstm_planner import DEFAULT_WEIGHTS
+    from planners.checkpoints import PAPER_WEIGHTS
 
     suite = make_suite("ditch", seed=7, n_terrains=1)
     lstm = tmp_path / "lstm.pt"
-    lstm.write_bytes(DEFAULT_WEIGHTS.read_bytes())
+    lstm.write_bytes(PAPER_WEIGHTS.read_bytes())
     options = {"seed": "lstm-guided@x", "seed_options": {"weights": str(lstm)}}
-    key = lambda: evaluation.fingerprint(suite, "trajopt", options, evaluation.EvalConfig(), None)
+    key = lambda: benchmark.fingerprint(suite, "trajopt", options, ClosedLoopConfig(), None)
     before = key()
     assert key() == before
-    lstm.write_bytes(DEFAULT_WEIGHTS.read_bytes() + b"retrained")
+    lstm.write_bytes(PAPER_WEIGHTS.read_bytes() + b"retrained")
     assert key() != before
-    step_seed = lambda: evaluation.fingerprint(suite, "trajopt", {"seed": "step"}, evaluation.EvalConfig(), None)
+    step_seed = lambda: benchmark.fingerprint(suite, "trajopt", {"seed": "step"}, ClosedLoopConfig(), None)
     assert step_seed() == step_seed() != before
 
 
 def test_cost_weights_given_as_options_are_part_of_the_cache_key():
     """Angle- and Step-space take ``weights`` as cost weights, not a checkpoint file: a list is keyed as given."""
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    key = lambda w: evaluation.fingerprint(suite, "step@w", {"weights": w}, evaluation.EvalConfig(), None)
+    key = lambda w: benchmark.fingerprint(suite, "step@w", {"weights": w}, ClosedLoopConfig(), None)
     assert key([1, 0, 2]) == key([1, 0, 2]) != key([1, 1, 2])

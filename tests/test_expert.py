@@ -3,11 +3,11 @@ import numpy as np
 import pytest
 
 import drakeslip as ds
-from planners.dataset import DatasetConfig, instance, instance_sequences
-from planners.evaluation import perceived
-from planners.expert import GoalReachingExpert, run_depth
-from planners.lstm_inputs import encode_window
-from planners.step_space import StepSpacePlanner
+from planners.learned.training.dataset import DatasetConfig, instance, instance_sequences
+from planners.learned.training.expert import GoalReachingExpert
+from planners.search.tree import run_depth
+from planners.learned.inputs import encode_window
+from planners.search.step_space import StepSpacePlanner
 
 
 def test_run_depth_counts_steps_to_the_nearest_gap():
@@ -22,7 +22,7 @@ def test_expert_choice_hops_and_leaves_a_plan_to_the_goal():
     terrain, params = ds.ditch_world(1003), ds.SlipParams()
     apex = ds.ApexState(0.0, 0.8, 1.5)
     expert = GoalReachingExpert()
-    window = perceived(terrain, apex.x)
+    window = terrain.perceived(apex.x)
     label = expert.label(apex, window, 10.0, params)
     assert label.choice >= 0 and label.reaching[label.choice] and label.ode_calls > 0
     depth = run_depth(label.reaching)
@@ -37,11 +37,11 @@ def test_look_ahead_expert_keeps_margin_and_more_room_a_hop_later():
     """With look_ahead the goal-reaching set is the same, the choice lies at least LOOK_AHEAD_MARGIN deep inside
     its run, and the state its hop reaches leaves more room than the plain choice's does (from this start the
     two choices differ)."""
-    from planners.expert import LOOK_AHEAD_MARGIN
+    from planners.learned.training.expert import LOOK_AHEAD_MARGIN
 
     terrain, params = ds.ditch_world(1003), ds.SlipParams(friction=0.8)
     apex, plain = ds.ApexState(0.0, 0.7, 1.0), GoalReachingExpert()
-    window = perceived(terrain, apex.x)
+    window = terrain.perceived(apex.x)
     base = plain.label(apex, window, 10.0, params)
     ahead = GoalReachingExpert(look_ahead=True).label(apex, window, 10.0, params)
     assert np.array_equal(ahead.reaching, base.reaching) and ahead.ode_calls > base.ode_calls
@@ -80,10 +80,9 @@ def test_committed_expert_model_plans_one_hop_that_works():
     """The mode planner with the expert-trained model (one step ahead) picks, from the suites' start states on a
     ditch terrain, a first foothold whose hop works and lands where it aimed; zero step-map calls."""
     import planners
-    from planners.lstm_planner import EXPERT_WEIGHTS
 
-    terrain, params = perceived(ds.ditch_world(1003), -1.0), ds.SlipParams(friction=0.8)
-    planner = planners.make("lstm", weights=str(EXPERT_WEIGHTS), max_steps=1)
+    terrain, params = ds.ditch_world(1003).perceived(-1.0), ds.SlipParams(friction=0.8)
+    planner = planners.make("lstm@dagger")
     assert planner.model.config.hidden == 256 and planner.model.config.subcells == 4
     for apex in [(-1.0, 0.8, 1.0), (-1.0, 1.0, 2.0), (-1.0, 0.8, 3.0)]:
         plan = planner.plan(apex, terrain, 10.0, params)
@@ -109,11 +108,10 @@ def test_dagger_rollout_follows_the_policy_only_where_it_reaches_the_goal():
     """With a policy the rollout hops to the policy's foothold when it is goal-reaching and to the expert's
     choice otherwise; a policy that is never goal-reaching leaves the expert's own rollout."""
     import planners
-    from planners.lstm_planner import EXPERT_WEIGHTS
 
     terrain, params, apex = ds.step_world(1005), ds.SlipParams(friction=0.8), ds.ApexState(-1.0, 0.9, 1.5)
     expert = GoalReachingExpert()
-    learned = planners.make("lstm", weights=str(EXPERT_WEIGHTS), max_steps=1, controller=expert.controller)
+    learned = planners.make("lstm@dagger", controller=expert.controller)
     states = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0), policy=learned)
     labelled = [(label, x) for _, label, x in states if label.choice >= 0]
     assert len(labelled) >= 5 and all(expert.goal_reaching(label, x) for label, x in labelled)
@@ -138,7 +136,7 @@ class _ExpertPolicy(_Policy):
 def test_the_expert_path_diagnostic_scores_each_state(example):
     """examples/lstm_diagnostics.py --diagnostics 4: a planner that proposes the expert's choice is goal-reaching
     at every state of the expert's path; one that steps behind the body never is."""
-    from planners.suite import Case
+    from planners.formats.suite import Case
 
     diagnostics = example("lstm_diagnostics")
     expert, params = GoalReachingExpert(), ds.SlipParams(friction=0.8)
@@ -152,12 +150,12 @@ def test_the_top_k_oracle_is_the_mode_planner_at_k_1_and_picks_a_goal_reaching_f
     """examples/lstm_diagnostics.py --diagnostics 5: with k = 1 the oracle plans the one-step mode planner's
     foothold; with k = 8 a goal-reaching one, leaving at least as much room a hop later as the mode does."""
     from planners import make
-    from planners.lstm_planner import EXPERT_WEIGHTS
+    from planners.checkpoints import EXPERT_WEIGHTS
 
     diagnostics = example("lstm_diagnostics")
     params, apex = ds.SlipParams(friction=0.8), ds.ApexState(0.0, 0.7, 1.0)
-    window = perceived(ds.ditch_world(1003), apex.x)
-    mode = float(make("lstm", weights=EXPERT_WEIGHTS, max_steps=1).plan(apex, window, 10.0, params).footholds[0])
+    window = ds.ditch_world(1003).perceived(apex.x)
+    mode = float(make("lstm@dagger").plan(apex, window, 10.0, params).footholds[0])
     one = diagnostics.TopKOracle(1, weights=EXPERT_WEIGHTS).plan(apex, window, 10.0, params)
     assert one.footholds.tolist() == [mode]
 

@@ -1,5 +1,5 @@
 import pytest, os
-from drakeslip.files import atomic_write
+from drakeslip.jobs.files import atomic_write
 
 def test_atomic_write_replaces_only_on_success(tmp_path):
     path = tmp_path / "sub" / "result.json"
@@ -15,7 +15,7 @@ def test_atomic_write_replaces_only_on_success(tmp_path):
 
 
 def test_jsonl_cache_skips_a_line_cut_short_by_a_kill(tmp_path):
-    from drakeslip.files import append_jsonl, read_jsonl_cache
+    from drakeslip.jobs.files import append_jsonl, read_jsonl_cache
 
     path = tmp_path / "cache.jsonl"
     with open(path, "a") as sink:
@@ -27,7 +27,7 @@ def test_jsonl_cache_skips_a_line_cut_short_by_a_kill(tmp_path):
 
 
 def test_an_entry_appended_after_a_cut_short_line_is_kept(tmp_path):
-    from drakeslip.files import append_jsonl, open_jsonl_cache, read_jsonl_cache
+    from drakeslip.jobs.files import append_jsonl, open_jsonl_cache, read_jsonl_cache
 
     path = tmp_path / "new" / "cache.jsonl"                 # the folder is created
     with open_jsonl_cache(path) as sink:

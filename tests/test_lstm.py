@@ -5,11 +5,11 @@ import pytest
 import torch
 
 import drakeslip as ds
-from planners.dataset import DatasetConfig, count_sequences, pending_shards, shard_path, write_manifest, write_shard
-from planners.lstm_inference import NumpyFootstepModel
-from planners.lstm_inputs import encode_window
-from planners.lstm_model import FootstepModel, ModelConfig, load_checkpoint
-from planners.lstm_train import TrainConfig, batch_loss, load_dataset, one_hot_inputs, train
+from planners.learned.training.dataset import DatasetConfig, count_sequences, pending_shards, shard_path, write_manifest, write_shard
+from planners.learned.inference import NumpyFootstepModel
+from planners.learned.inputs import encode_window
+from planners.learned.model import FootstepModel, ModelConfig, load_checkpoint
+from planners.learned.training.train_lstm import TrainConfig, batch_loss, load_dataset, one_hot_inputs, train
 
 TINY = DatasetConfig(n_terrains=2, apexes_per_terrain=2, instances_per_shard=1, seed=1)
 
@@ -156,7 +156,7 @@ def test_dataset_selectors_split_ditch_windows_from_the_rest(tiny_dataset):
 
 
 def test_step_space_sequences_move_forward_and_bad_configs_are_refused():
-    from planners.dataset import instance_sequences
+    from planners.learned.training.dataset import instance_sequences
 
     cfg = DatasetConfig(planner="step", min_steps=3, n_terrains=1, apexes_per_terrain=2, max_nodes=200, seed=4)
     rows = [s[s >= 0] for i in range(cfg.n_instances) for s in instance_sequences(cfg, i)["steps"]]
@@ -170,7 +170,7 @@ def test_step_space_sequences_move_forward_and_bad_configs_are_refused():
 def test_subcell_labels_are_the_exact_footholds():
     """With subcells=4 the Step-space data planner's grid is the bins' centres: a label bin gives back its
     foothold exactly, which is what lets the mode of a sub-cell model replay a planned sequence."""
-    from planners.dataset import instance, instance_sequences, search_tree
+    from planners.learned.training.dataset import instance, instance_sequences, search_tree
 
     cfg = DatasetConfig(planner="step", subcells=4, min_steps=3, n_terrains=1, apexes_per_terrain=1,
                         max_nodes=200, seed=4)
@@ -190,7 +190,7 @@ def test_subcell_labels_are_the_exact_footholds():
 
 
 def test_soft_targets_spread_over_the_viable_set():
-    from planners.lstm_train import soft_targets
+    from planners.learned.training.train_lstm import soft_targets
 
     sets = np.zeros((1, 2, 16), dtype=bool)
     sets[0, 0, [3, 5, 7]] = True
@@ -210,7 +210,7 @@ def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     assert len(train(cfg, log=lambda *_: None)["history"]) == 3
     import planners
 
-    planner = planners.make("lstm", weights=cfg.out)
+    planner = planners.make("lstm@paper", weights=cfg.out)
     terrain = ds.step_world(11)
     plan = planner.plan((0.0, 0.75, 1.5), terrain, 10.0, ds.SlipParams())
     assert plan.ode_calls == 0
@@ -250,25 +250,24 @@ def test_learned_planners_with_the_committed_weights():
     import math
 
     import planners
-    from planners.evaluation import perceived
-    from planners.search import clear_of_edges
+    from planners.search.tree import clear_of_edges
 
-    terrain, apex, params = perceived(ds.ditch_world(1003), 0.0), (0.0, 0.9, 2.0), ds.SlipParams(friction=0.8)
-    guided = planners.make("lstm-guided")
+    terrain, apex, params = ds.ditch_world(1003).perceived(0.0), (0.0, 0.9, 2.0), ds.SlipParams(friction=0.8)
+    guided = planners.make("lstm-guided@paper")
     plan = guided.plan(apex, terrain, 10.0, params)
     assert plan.success, plan.message
     assert plan.ode_calls < planners.make("step").plan(apex, terrain, 10.0, params).ode_calls
     assert guided.plan(apex, terrain, 10.0, params).footholds.tolist() == plan.footholds.tolist()
-    lazy = planners.make("lstm-guided", lazy=True).plan(apex, terrain, 10.0, params)
+    lazy = planners.make("lstm-guided@paper", lazy=True).plan(apex, terrain, 10.0, params)
     assert lazy.success and lazy.ode_calls <= plan.ode_calls  # one candidate simulated at a time
-    restarted = planners.make("lstm-guided", lazy=True, conditioning="apex").plan(apex, terrain, 10.0, params)
+    restarted = planners.make("lstm-guided@paper", lazy=True, conditioning="apex").plan(apex, terrain, 10.0, params)
     assert restarted.success and restarted.ode_calls <= lazy.ode_calls
     with pytest.raises(ValueError, match="conditioning"):
         planners.make("lstm-guided", conditioning="future")
     reached = ds.step_batch(apex, plan.leg_angles[:1], terrain, params)
     assert reached.ok[0] and abs(reached.touchdown_x[0] - plan.footholds[0]) < 0.02
 
-    lstm = planners.make("lstm").plan(apex, terrain, 10.0, params)
+    lstm = planners.make("lstm@paper").plan(apex, terrain, 10.0, params)
     assert lstm.success and lstm.ode_calls == 0
     assert np.all(np.diff(lstm.footholds) > 0)
     assert np.all(clear_of_edges(terrain, lstm.footholds, 0.02))
@@ -278,10 +277,10 @@ def test_learned_planners_with_the_committed_weights():
 def test_lstm_guided_takes_cost_weights_beside_its_checkpoint():
     """``weights`` names the LSTM checkpoint; the node cost's weights are ``cost_weights``, as Step-space's."""
     import planners
-    from planners.lstm_planner import DEFAULT_WEIGHTS
-    from planners.search import CostWeights
+    from planners.checkpoints import PAPER_WEIGHTS
+    from planners.search.tree import CostWeights
 
-    guided = planners.make("lstm-guided", weights=str(DEFAULT_WEIGHTS), cost_weights=(1, 0, 2))
+    guided = planners.make("lstm-guided", weights=str(PAPER_WEIGHTS), cost_weights=(1, 0, 2))
     assert guided.weights == CostWeights(1, 0, 2)
     assert planners.make("lstm-guided").weights == planners.make("step").weights
     terrain, apex = ds.Terrain.flat(), (0.0, 0.9, 2.0)

@@ -1,4 +1,4 @@
-"""Plan files (planners.plan_io) and plan checking on Drake (verification.plan_check): a certificate with
+"""Plan files (planners.formats.plan) and plan checking on Drake (verification.plan_check): a certificate with
 positive margins for a plan that works, the right counterexample for plans known to fail."""
 import json
 from pathlib import Path
@@ -11,9 +11,8 @@ import planners
 from drakeslip import FailureMode
 from drakeslip.controller import StepLengthController
 from planners.base import FootstepSequence, Plan
-from planners.evaluation import perceived
-from planners.plan_io import PlanRecord, load_plan, save_plan
-from planners.suite import make_suite, save_suite
+from planners.formats.plan import PlanRecord, load_plan, save_plan
+from planners.formats.suite import make_suite, save_suite
 from verification.plan_check import Certificate, Counterexample, check_plan
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,7 +36,7 @@ def step_case():
 def step_record(step_case, controller):
     suite, case = step_case
     params = ds.SlipParams(friction=suite.friction)
-    plan = planners.make("step", controller=controller).plan(case.apex, perceived(case.terrain, case.apex.x),
+    plan = planners.make("step", controller=controller).plan(case.apex, case.terrain.perceived(case.apex.x),
                                                              suite.goal_x, params)
     assert plan.success
     return PlanRecord.from_plan(plan, case.apex, case.terrain, suite.goal_x, params)
@@ -142,22 +141,22 @@ def test_malformed_plan_file_names_the_file_and_field(tmp_path, step_record, edi
         load_plan(path)
 
 
-def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, capsys, example):
+def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, run_script):
     suite = tmp_path / "suite.json"
     save_suite(make_suite("step", seed=2000, n_terrains=1), suite)
     plan = tmp_path / "plan.json"
-    assert example("make_plan").main(["--suite", str(suite), "--case", "step-2000-v2.5-z1", "--planner", "step",
-                                      "--out", str(plan)]) == 0
+    code, _, err = run_script("make_plan", "--suite", suite, "--case", "step-2000-v2.5-z1", "--planner", "step",
+                              "--out", plan)
+    assert code == 0, err
     assert load_plan(plan).planner == "step"
-    verify = example("verify_plan").main
     out = tmp_path / "check.json"
     ditch_plan(controller).save(tmp_path / "ditch.json")
-    assert verify(["--plan", str(tmp_path / "ditch.json"), "--json", str(out)]) == 1
+    code, stdout, _ = run_script("verify_plan", "--plan", tmp_path / "ditch.json", "--out", out)
+    assert code == 1 and "COUNTEREXAMPLE" in stdout
     assert json.loads(out.read_text())["failure"] == "FOOT_COLLISION"
-    assert "COUNTEREXAMPLE" in capsys.readouterr().out
     (tmp_path / "broken.json").write_text("{")
-    assert verify(["--plan", str(tmp_path / "broken.json")]) == 2
-    assert "broken.json is not valid JSON" in capsys.readouterr().err
+    code, _, err = run_script("verify_plan", "--plan", tmp_path / "broken.json")
+    assert code == 2 and "broken.json is not valid JSON" in err and len(err.splitlines()) == 1
 
 
 def test_every_registered_planner_is_known_after_import_planners():

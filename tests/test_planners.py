@@ -7,8 +7,8 @@ import pytest
 import planners
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.terrain import DITCH_HEIGHT
-from planners.evaluation import EvalConfig, run_case
-from planners.suite import Case
+from planners.closed_loop import ClosedLoopConfig, run_case
+from planners.formats.suite import Case
 
 PARAMS = SlipParams(friction=0.8)
 NAMES = ["heuristic", "angle", "step"]
@@ -47,7 +47,7 @@ def test_flat_ground_plan_moves_straight_to_the_target(made, name):
 @pytest.mark.parametrize("name", NAMES)
 def test_flat_ground_receding_horizon_reaches_the_goal(made, controller, name):
     case = Case("flat", Terrain.flat(length=20.0), ApexState(0.0, 0.9, 2.0))
-    result = run_case(made[name], controller, case, 10.0, PARAMS, EvalConfig(backend="fast"))
+    result = run_case(made[name], controller, case, 10.0, PARAMS, ClosedLoopConfig(backend="fast"))
     assert result["success"], result
     assert result["final_x"] >= 10.0
 
@@ -161,8 +161,8 @@ def test_the_foothold_grid_covers_every_touchdown_the_friction_cone_reaches():
     friction cone lands on: from a fast apex over a ditch the feet land on the far bank, higher than the ditch
     floor under the body (the range once used the floor and missed the footholds that cross at 3 m/s)."""
     from drakeslip.terrain import ditch_world, step_world
-    from planners.angle_space import FRICTION_MARGIN
-    from planners.step_space import touchdown_range
+    from planners.search.angle_space import FRICTION_MARGIN
+    from planners.search.step_space import touchdown_range
 
     params = SlipParams(friction=0.8)
     rng = np.random.default_rng(0)

@@ -1,4 +1,4 @@
-"""The foothold ranker (planners/foothold_ranker.py): its label, its use by the mode planner, its weights file and
+"""The foothold ranker (planners/learned/ranker.py): its label, its use by the mode planner, its weights file and
 its DAgger training script."""
 import numpy as np
 import pytest
@@ -6,13 +6,13 @@ import torch
 
 import drakeslip as ds
 from planners import make
-from planners.evaluation import perceived
-from planners.foothold_ranker import (N_FEATURES, ROOM_CAP, FootholdRanker, OneHopRoom, RankerNet,
-                                      candidate_features, save_ranker)
-from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS, LSTMPlanner
+from planners.learned.ranker import N_FEATURES, ROOM_CAP, FootholdRanker, RankerNet, candidate_features, save_ranker
+from planners.learned.training.labels import OneHopRoom
+from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS
+from planners.learned.lstm import LSTMPlanner
 
 PARAMS, APEX = ds.SlipParams(friction=0.8), ds.ApexState(0.0, 0.7, 1.0)
-WINDOW = perceived(ds.ditch_world(1003), APEX.x)
+WINDOW = ds.ditch_world(1003).perceived(APEX.x)
 RANK = 6  # the feature that holds a candidate's rank (0: most probable)
 
 
@@ -31,9 +31,9 @@ def rank_ranker(path, sign):
 
 
 class Recording(LSTMPlanner):
-    def _ranked(self, problem, grid, score, theta):
+    def pick_first(self, problem, grid, score, theta):
         self.seen = grid[np.argsort(-score, kind="stable")][:int((score > 0).sum())]
-        return super()._ranked(problem, grid, score, theta)
+        return super().pick_first(problem, grid, score, theta)
 
 
 @pytest.mark.parametrize("top_k", [1, 2, 3])
@@ -42,15 +42,18 @@ def test_the_ranker_picks_among_the_top_k_first_footholds(tmp_path, top_k):
     plan = last.plan(APEX, WINDOW, 10.0, PARAMS)
     assert plan.footholds.tolist() == [last.seen[top_k - 1]]
     first = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "first.pt", -1.0), top_k=3)
-    mode = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1).plan(APEX, WINDOW, 10.0, PARAMS)
+    mode = make("lstm@dagger").plan(APEX, WINDOW, 10.0, PARAMS)
     assert first.plan(APEX, WINDOW, 10.0, PARAMS).footholds.tolist() == mode.footholds.tolist() == [last.seen[0]]
     assert plan.ode_calls == 0
 
 
 def test_the_committed_ranker_plans_with_no_step_map_call():
-    planner = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1, ranker=RANKER_WEIGHTS)
+    planner = make("lstm")  # the default: the expert model, one step, the committed ranker
+    assert planner.ranker is not None and planner.max_steps == 1
     plan = planner.plan(APEX, WINDOW, 10.0, PARAMS)
     assert plan.success and plan.ode_calls == 0 and plan.footholds.size == 1
+    assert plan.footholds.tolist() == make("lstm", weights=EXPERT_WEIGHTS, ranker=RANKER_WEIGHTS).plan(
+        APEX, WINDOW, 10.0, PARAMS).footholds.tolist()
 
 
 def test_the_numpy_ranker_computes_the_torch_network(tmp_path):
@@ -82,7 +85,7 @@ def test_a_corrupt_or_mismatched_ranker_file_is_a_clear_error(tmp_path):
 
 
 def test_one_hop_room_labels_a_failed_hop_a_hop_past_the_target_and_one_with_room():
-    planner = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1)
+    planner = make("lstm@dagger")
     problem = planner.problem(APEX, WINDOW, 10.0, PARAMS, 0.0)
     mode = planner.plan(APEX, WINDOW, 10.0, PARAMS).footholds
     x = np.array([mode[0], mode[0], 0.3])

@@ -6,9 +6,8 @@ import pytest
 import drakeslip as ds
 import planners
 from drakeslip.controller import StepLengthController
-from planners.evaluation import perceived
-from planners.plan_io import PlanRecord
-from planners.suite import make_suite
+from planners.formats.plan import PlanRecord
+from planners.formats.suite import make_suite
 from verification.robustness import confirm_on_drake, success_probability, wilson_interval
 
 NOISY = dict(apex_noise=(0.01, 0.01, 0.05), angle_noise=0.02)
@@ -25,7 +24,7 @@ def record(controller):
     suite = make_suite("step", seed=2000, n_terrains=1)
     case = suite.cases[7]
     params = ds.SlipParams(friction=suite.friction)
-    plan = planners.make("step", controller=controller).plan(case.apex, perceived(case.terrain, case.apex.x),
+    plan = planners.make("step", controller=controller).plan(case.apex, case.terrain.perceived(case.apex.x),
                                                              suite.goal_x, params)
     return PlanRecord.from_plan(plan, case.apex, case.terrain, suite.goal_x, params)
 
@@ -80,11 +79,13 @@ def test_bad_arguments_are_named(record, call, message):
         call(record)
 
 
-def test_cli(tmp_path, record, capsys, example):
-    cli = example("robustness")
+def test_cli(tmp_path, record, run_script):
     record.save(tmp_path / "plan.json")
-    assert cli.main(["--plan", str(tmp_path / "plan.json"), "--samples", "50", "--seed", "1",
-                     "--apex-noise", "0,0,0", "--angle-noise", "0"]) == 0
-    assert "success rate 1.0000 (50/50)" in capsys.readouterr().out
+    code, out, _ = run_script("robustness", "--plan", tmp_path / "plan.json", "--samples", "50", "--seed", "1",
+                              "--apex-noise", "0,0,0", "--angle-noise", "0")
+    assert code == 0 and "success rate 1.0000 (50/50)" in out
     (tmp_path / "bad.json").write_text("[]")
-    assert cli.main(["--plan", str(tmp_path / "bad.json")]) == 2
+    code, _, err = run_script("robustness", "--plan", tmp_path / "bad.json")
+    assert code == 2 and "must be an object, got list" in err and len(err.splitlines()) == 1
+    code, _, err = run_script("robustness", "--plan", tmp_path / "plan.json", "--angle-noise", "nan")
+    assert code == 2 and "--angle-noise" in err

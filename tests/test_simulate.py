@@ -1,6 +1,6 @@
 """Multi-hop Drake simulation: each apex command is used for exactly one hop, in order."""
 import drakeslip as ds
-from drakeslip.simulate import simulate
+from drakeslip.simulation import simulate
 
 FLAT = ds.Terrain.flat()
 

@@ -1,4 +1,4 @@
-"""The multi-hop trajectory optimization (planners/trajopt.py): its equations agree with the simulators, it
+"""The multi-hop trajectory optimization (planners/trajopt/): its equations agree with the simulators, it
 converges and verifies on flat ground, and bad seeds are rejected clearly."""
 import math
 
@@ -8,9 +8,16 @@ import pytest
 from drakeslip import SlipParams, Terrain, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.terrain import DITCH_HEIGHT
-from planners import generic_slip as G
-from planners import trajopt as T
-from planners.lstm_planner import load_model
+from planners.learned.lstm import load_model
+from planners.trajopt import autodiff as G
+from planners.trajopt import solve
+from planners.trajopt.config import COLD_STRIDES, COLLOCATIONS, TrajoptConfig, TrajoptError
+from planners.trajopt.guess import build_guess
+from planners.trajopt.planner import TrajoptPlanner, make_problem
+from planners.trajopt.program import SlipTrajopt
+from planners.trajopt.seeds import check_seed, cold_footholds, seed_footholds, seed_planner
+from planners.trajopt.segments import assign_segments, segment_of, segments
+from planners.trajopt.solve import optimize
 
 PARAMS = SlipParams()
 APEX = (0.0, 1.0, 2.0)
@@ -30,7 +37,7 @@ def executed_footholds(apex, angles, terrain, params=PARAMS):
 @pytest.fixture(scope="module")
 def flat_problem():
     terrain = Terrain.flat()
-    return T.make_problem(APEX, terrain, 3.0, PARAMS)
+    return make_problem(APEX, terrain, 3.0, PARAMS)
 
 
 def test_generic_equations_are_the_compiled_ones():
@@ -58,14 +65,14 @@ def test_constraints_agree_with_the_fast_step_map_on_a_simulated_seed():
     stance breaks the dynamics defect."""
     terrain = Terrain.flat()
     footholds, apexes = executed_footholds(APEX, [0.25, 0.27, 0.27], terrain)
-    problem = T.make_problem(APEX, terrain, apexes[-1][0] - 0.1, PARAMS)
-    config = T.TrajoptConfig()
-    segs = T.assign_segments(terrain, footholds, config.edge_margin, problem.window_end)
-    guess = T.build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
+    problem = make_problem(APEX, terrain, apexes[-1][0] - 0.1, PARAMS)
+    config = TrajoptConfig()
+    segs = assign_segments(terrain, footholds, config.edge_margin, problem.window_end)
+    guess = build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
     assert guess.fast_ok, guess.fast_failure
     assert guess.footholds == pytest.approx(footholds, abs=1e-6)  # the controller lands where the seed says
     assert guess.apexes == pytest.approx(apexes, abs=1e-9)
-    program = T.SlipTrajopt(APEX, terrain, segs, PARAMS, problem.target_x, config)
+    program = SlipTrajopt(APEX, terrain, segs, PARAMS, problem.target_x, config)
     x = program.guess_vector(guess)
     v = program.violations(x)
     assert v["dynamics"] < 1e-6, v          # Chebyshev collocation on the integrated stance
@@ -78,16 +85,16 @@ def test_constraints_agree_with_the_fast_step_map_on_a_simulated_seed():
     assert program.violations(x)["dynamics"] > 1e-3
 
 
-@pytest.mark.parametrize("collocation", T.COLLOCATIONS)
+@pytest.mark.parametrize("collocation", COLLOCATIONS)
 def test_collocation_jacobian_matches_its_declared_sparsity_and_finite_differences(collocation):
     from pydrake.autodiffutils import ExtractGradient, InitializeAutoDiff
 
     terrain = Terrain.flat()
     footholds, _ = executed_footholds(APEX, [0.25, 0.27], terrain)
-    config = T.TrajoptConfig(collocation=collocation, knots=8)
-    segs = T.assign_segments(terrain, footholds, config.edge_margin)
-    guess = T.build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
-    program = T.SlipTrajopt(APEX, terrain, segs, PARAMS, config=config)
+    config = TrajoptConfig(collocation=collocation, knots=8)
+    segs = assign_segments(terrain, footholds, config.edge_margin)
+    guess = build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
+    program = SlipTrajopt(APEX, terrain, segs, PARAMS, config=config)
     x = program.guess_vector(guess)
     binding = program.groups["dynamics"][1]
     idx = np.array(program.prog.FindDecisionVariableIndices(binding.variables()))
@@ -103,7 +110,7 @@ def test_collocation_jacobian_matches_its_declared_sparsity_and_finite_differenc
 
 
 def test_flat_ground_cold_start_converges_and_verifies_on_drake(flat_problem):
-    record = T.optimize(flat_problem, "cold")
+    record = optimize(flat_problem, "cold")
     assert record["error"] is None
     assert record["converged"], record["status"]
     assert record["verified"], record["verification"]
@@ -120,73 +127,73 @@ def test_a_foothold_on_a_ditch_segment_is_rejected_clearly():
     heights = np.zeros(230)
     heights[40:45] = DITCH_HEIGHT            # a ditch over [1.0, 1.5)
     terrain = Terrain(heights)
-    with pytest.raises(T.TrajoptError, match=r"foothold 1 \(x=1\.200 m\) lies on a ditch segment \[1\.00, 1\.50\)"):
-        T.assign_segments(terrain, [0.5, 1.2, 2.0], 0.03)
-    problem = T.make_problem(APEX, terrain, 3.0, PARAMS)
-    record = T.optimize(problem, np.array([0.5, 1.2, 2.0]))
+    with pytest.raises(TrajoptError, match=r"foothold 1 \(x=1\.200 m\) lies on a ditch segment \[1\.00, 1\.50\)"):
+        assign_segments(terrain, [0.5, 1.2, 2.0], 0.03)
+    problem = make_problem(APEX, terrain, 3.0, PARAMS)
+    record = optimize(problem, np.array([0.5, 1.2, 2.0]))
     assert not record["converged"] and "ditch" in record["error"]
-    ditch = T.segment_of(terrain, 1.2)
-    with pytest.raises(T.TrajoptError, match="ditch"):
-        T.SlipTrajopt(APEX, terrain, [T.segment_of(terrain, 0.5), ditch], PARAMS)
+    ditch = segment_of(terrain, 1.2)
+    with pytest.raises(TrajoptError, match="ditch"):
+        SlipTrajopt(APEX, terrain, [segment_of(terrain, 0.5), ditch], PARAMS)
 
 
 def test_a_segment_too_short_for_the_edge_margin_is_rejected():
     heights = np.zeros(230)
     heights[40] = 0.1                        # one 10 cm cell
-    with pytest.raises(T.TrajoptError, match="too short"):
-        T.assign_segments(Terrain(heights), [1.05], 0.06)
+    with pytest.raises(TrajoptError, match="too short"):
+        assign_segments(Terrain(heights), [1.05], 0.06)
 
 
 def test_unknown_seed_errors_clearly(flat_problem):
     with pytest.raises(ValueError, match="unknown seed 'astar'; known seeds: cold, heuristic, step, lstm"):
-        T.seed_footholds("astar", flat_problem)
+        seed_footholds("astar", flat_problem)
     with pytest.raises(ValueError, match="unknown seed 'astar'"):
-        T.optimize(flat_problem, "astar")
+        optimize(flat_problem, "astar")
     with pytest.raises(ValueError, match="unknown seed"):
-        T.TrajoptPlanner(seed="astar")
+        TrajoptPlanner(seed="astar")
 
 
 def test_a_seed_variant_plans_with_its_options(flat_problem):
     """NAME@VARIANT is the named seed's planner built with the given options; options it does not take, a
     missing weights file and options for the cold gait are errors naming the seed."""
-    from planners.lstm_planner import EXPERT_WEIGHTS
+    from planners.checkpoints import EXPERT_WEIGHTS
 
     options = {"weights": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
-    planner = T._seed_planner("lstm-guided@expert", options, T.TrajoptConfig.max_hops, None, 0)
+    planner = seed_planner("lstm-guided@expert", options, TrajoptConfig.max_hops, None, 0)
     assert planner.lazy and planner.conditioning == "apex"
-    preset = T._seed_planner("lstm-guided@expert", None, T.TrajoptConfig.max_hops, None, 0)  # planners/presets.py
+    preset = seed_planner("lstm-guided@expert", None, TrajoptConfig.max_hops, None, 0)  # planners.registry.PRESETS
     assert preset.lazy and preset.conditioning == "apex" and preset.net.model.config == planner.net.model.config
     assert planner.net.model.config == load_model(EXPERT_WEIGHTS).config != load_model().config
-    footholds, calls = T.seed_footholds("lstm-guided@expert", flat_problem, options=options)
+    footholds, calls = seed_footholds("lstm-guided@expert", flat_problem, options=options)
     assert calls > 0 and np.all(np.diff(footholds) > 0) and footholds[-1] >= flat_problem.target_x
     with pytest.raises(ValueError, match="options for the lstm-guided@x seed: .*'bogus'"):
-        T.check_seed("lstm-guided@x", {"bogus": 1})
+        check_seed("lstm-guided@x", {"bogus": 1})
     with pytest.raises(ValueError, match="options for the lstm@x seed: .*nope.pt"):
-        T.check_seed("lstm@x", {"weights": "nope.pt"})
+        check_seed("lstm@x", {"weights": "nope.pt"})
     with pytest.raises(ValueError, match="the cold@x seed is a fixed gait and takes no options"):
-        T.check_seed("cold@x", {"extra_hops": 1})
+        check_seed("cold@x", {"extra_hops": 1})
     with pytest.raises(ValueError, match="unknown seed 'astar@x'"):
-        T.TrajoptPlanner(seed="astar@x")
+        TrajoptPlanner(seed="astar@x")
 
 
 def test_segments_and_cold_seed_cover_the_problem(flat_problem):
     terrain = Terrain(np.r_[np.zeros(40), np.full(10, 0.2), np.zeros(180)])
-    segs = T.segments(terrain)
+    segs = segments(terrain)
     assert [(s.lo, s.hi, s.height) for s in segs] == [(-math.inf, pytest.approx(1.0), 0.0),
                                                       (pytest.approx(1.0), pytest.approx(2.0), 0.2),
                                                       (pytest.approx(2.0), math.inf, 0.0)]
-    cold = T.cold_footholds(flat_problem)
+    cold = cold_footholds(flat_problem)
     steps = np.diff(cold)
     assert np.all(steps > 0) and steps == pytest.approx(np.full(steps.size, steps[0]))
     assert cold[-1] >= flat_problem.target_x
     # the cold seed's other starts: the same span in more or fewer equal steps
-    for sample, extra in enumerate(T.COLD_STRIDES):
-        other, calls = T.seed_footholds("cold", flat_problem, sample=sample)
+    for sample, extra in enumerate(COLD_STRIDES):
+        other, calls = seed_footholds("cold", flat_problem, sample=sample)
         assert calls == 0
         assert other.size == max(cold.size + extra, 2)
         assert (other[0], other[-1]) == pytest.approx((cold[0], cold[-1]))
     with pytest.raises(ValueError, match="the step seed has one start; sample 1"):
-        T.seed_footholds("step", flat_problem, sample=1)
+        seed_footholds("step", flat_problem, sample=1)
 
 
 def test_a_start_that_is_not_verified_is_followed_by_the_next(flat_problem, monkeypatch):
@@ -200,42 +207,42 @@ def test_a_start_that_is_not_verified_is_followed_by_the_next(flat_problem, monk
         return {"seed": seed, "converged": ok, "verified": ok, "error": None, "status": f"start {sample}",
                 "seed_time_s": 0.5, "solve_time_s": 2.0, "iterations": 10}
 
-    monkeypatch.setattr(T, "_optimize_start", fake_start)
-    record = T.optimize(flat_problem, "lstm-guided", T.TrajoptConfig(starts=3))
+    monkeypatch.setattr(solve, "optimize_start", fake_start)
+    record = optimize(flat_problem, "lstm-guided", TrajoptConfig(starts=3))
     assert calls == [("lstm-guided", 0), ("lstm-guided", 1)]
     assert record["verified"] and record["status"] == "start 1"
     assert [s["verified"] for s in record["starts"]] == [False, True]
     assert (record["seed_time_s"], record["solve_time_s"], record["iterations"]) == (1.0, 4.0, 20)
     calls.clear()
-    record = T.optimize(flat_problem, "step", T.TrajoptConfig(starts=3))
+    record = optimize(flat_problem, "step", TrajoptConfig(starts=3))
     assert calls == [("step", 0)] and "starts" not in record
     calls.clear()  # a variant of a seed with several starts has them too
-    T.optimize(flat_problem, "lstm-guided@lazy", T.TrajoptConfig(starts=3), seed_options={"lazy": True})
+    optimize(flat_problem, "lstm-guided@lazy", TrajoptConfig(starts=3), seed_options={"lazy": True})
     assert calls == [("lstm-guided@lazy", 0), ("lstm-guided@lazy", 1)]
 
 
 def test_an_unconverged_point_near_feasible_is_polished_to_convergence(flat_problem):
     """A solve cut short (here by a 3-iteration limit) ends near feasible; solving again from its own point
     (what optimize does for SNOPT's numerical difficulties) reaches the same optimum as an uncut solve."""
-    footholds = T.cold_footholds(flat_problem)
-    segs = T.assign_segments(flat_problem.terrain, footholds, 0.03, flat_problem.window_end)
-    guess = T.build_guess(flat_problem.apex, footholds, segs, flat_problem.terrain, PARAMS,
-                          T.TrajoptConfig().node_times())
-    short = T.SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x,
-                          T.TrajoptConfig(major_iterations=3)).solve(guess)
+    footholds = cold_footholds(flat_problem)
+    segs = assign_segments(flat_problem.terrain, footholds, 0.03, flat_problem.window_end)
+    guess = build_guess(flat_problem.apex, footholds, segs, flat_problem.terrain, PARAMS,
+                          TrajoptConfig().node_times())
+    short = SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x,
+                          TrajoptConfig(major_iterations=3)).solve(guess)
     assert not short.converged and short.x.shape == (short.x.size,)
-    full = T.SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x)
+    full = SlipTrajopt(flat_problem.apex, flat_problem.terrain, segs, PARAMS, flat_problem.target_x)
     polished, direct = full.solve(short.x), full.solve(guess)
     assert polished.converged and direct.converged
     assert polished.cost == pytest.approx(direct.cost, rel=1e-3, abs=1e-4)
 
 
-@pytest.mark.parametrize("seed", ["lstm", "lstm-guided"])
+@pytest.mark.parametrize("seed", ["lstm@paper", "lstm-guided"])
 def test_learned_seeds_give_increasing_footholds_to_the_target(seed):
     from drakeslip import ditch_world
 
-    problem = T.make_problem(APEX, ditch_world(1003), 4.0, PARAMS)
-    footholds, calls = T.seed_footholds(seed, problem)
+    problem = make_problem(APEX, ditch_world(1003), 4.0, PARAMS)
+    footholds, calls = seed_footholds(seed, problem)
     assert calls > 0 if seed == "lstm-guided" else calls == 0   # the mode planner simulates nothing
     assert footholds.size >= 2 and np.all(np.diff(footholds) > 0)
     assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
@@ -247,12 +254,12 @@ def test_the_one_step_lstm_seed_is_asked_again_at_each_predicted_apex():
     from drakeslip import ditch_world
     from drakeslip.controller import StepLengthController
     from planners import make
-    from planners.lstm_planner import EXPERT_WEIGHTS, RANKER_WEIGHTS
+    from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS
 
     options = {"weights": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)}
     terrain = ditch_world(1003)
-    problem = T.make_problem(APEX, terrain, 4.0, PARAMS)
-    footholds, calls = T.seed_footholds("lstm@ranked", problem, options=options)
+    problem = make_problem(APEX, terrain, 4.0, PARAMS)
+    footholds, calls = seed_footholds("lstm@ranked", problem, options=options)
     assert footholds.size >= 3 and calls == footholds.size - 1  # one prediction per foothold before the last
     assert footholds[-1] >= problem.target_x and np.all(footholds[:-1] < problem.target_x)
     planner, controller = make("lstm", **options), StepLengthController.load_default()
@@ -260,19 +267,19 @@ def test_the_one_step_lstm_seed_is_asked_again_at_each_predicted_apex():
     for x in footholds:  # each foothold is the planner's answer at the apex the previous ones lead to
         assert planner.plan(apex, terrain, problem.goal_x, PARAMS).footholds[0] == x
         apex = step_batch(apex, [controller.leg_angle(apex, x, terrain)], terrain, PARAMS).result(0).next_apex
-    short, _ = T.seed_footholds("lstm@ranked", problem, max_hops=2, options=options)
+    short, _ = seed_footholds("lstm@ranked", problem, max_hops=2, options=options)
     assert np.array_equal(short, footholds[:2])
 
 
 def test_config_checks():
     with pytest.raises(ValueError, match="collocation"):
-        T.TrajoptConfig(collocation="trapezoid")
+        TrajoptConfig(collocation="trapezoid")
     with pytest.raises(ValueError, match="solver"):
-        T.TrajoptConfig(solver="gurobi")
+        TrajoptConfig(solver="gurobi")
     with pytest.raises(ValueError, match="starts must be an integer in 1..5, got 0"):
-        T.TrajoptConfig(starts=0)
+        TrajoptConfig(starts=0)
     with pytest.raises(ValueError, match="polish_violation must be non-negative"):
-        T.TrajoptConfig(polish_violation=-1.0)
+        TrajoptConfig(polish_violation=-1.0)
 
 
 def test_as_a_planner_it_returns_the_optimized_plan():
@@ -297,7 +304,7 @@ def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
     from pathlib import Path
 
     from drakeslip import ApexState
-    from planners.suite import Case, Suite, save_suite
+    from planners.formats.suite import Case, Suite, save_suite
 
     root = Path(__file__).resolve().parents[1]
     suite_path, out = tmp_path / "flat.json", tmp_path / "out.json"
@@ -317,6 +324,7 @@ def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
     assert bad.returncode == 2 and "starts must be an integer in 1..5, got 9" in bad.stderr
 
 
+@pytest.mark.slow
 def test_warmstart_example_in_two_processes_gives_the_serial_records(tmp_path):
     """--jobs 2 solves the (seed, case) pairs in spawned processes: every record (iterations, verdict, leg
     angles) is the one the serial run gives, and the cache holds each pair once."""
@@ -326,7 +334,7 @@ def test_warmstart_example_in_two_processes_gives_the_serial_records(tmp_path):
     from pathlib import Path
 
     from drakeslip import ApexState
-    from planners.suite import Case, Suite, save_suite
+    from planners.formats.suite import Case, Suite, save_suite
 
     root = Path(__file__).resolve().parents[1]
     suite_path = tmp_path / "flat.json"

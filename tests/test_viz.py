@@ -7,7 +7,7 @@ import pytest
 from PIL import Image
 
 import drakeslip as ds
-from drakeslip.simulate import simulate
+from drakeslip.simulation import simulate
 
 ROOT = Path(__file__).resolve().parents[1]
 

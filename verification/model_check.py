@@ -17,7 +17,7 @@ The state, and why merging is sound enough
   edge) can be lost. Hence the precise verdicts:
 
   ``traversable``      a sequence of grid leg angles, commanded open-loop on the Drake simulator
-                       (``drakeslip.simulate``), reaches the goal with no failure: the ``witness``.
+                       (``drakeslip.simulation``), reaches the goal with no failure: the ``witness``.
   ``not-traversable``  every pass exhausted its reachable set without reaching the goal: no plan exists over
                        this leg-angle grid with these merge tolerances (on the fast step map). A coarse pass
                        (0.5 deg, 1 cm, 1 cm/s) is confirmed by a finer one (0.25 deg, 0.5 cm) before this is
@@ -37,7 +37,7 @@ The search
   ``CAREFUL_SPEED`` (the planners avoid both) or its foot clears the terrain at the apex by less than
   ``TRIP_MARGIN``: there the two simulators can part (Drake checks the touchdown guard at its 2 ms step ends,
   so a foot landing within a step's travel of a ditch edge can miss the ground; see
-  ``drakeslip.simulate.IntegratorConfig``). This orders the search and prunes nothing, so the verdicts keep
+  ``drakeslip.simulation.IntegratorConfig``). This orders the search and prunes nothing, so the verdicts keep
   their meaning, but witnesses stay off knife edges where they can.
 
 The Drake check
@@ -48,23 +48,18 @@ The Drake check
 """
 from __future__ import annotations
 
-import hashlib
 import heapq
-import json
 import math
-import random
 import time
 from dataclasses import asdict, dataclass
-from pathlib import Path
 
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
-from drakeslip.pool import results_of
+from drakeslip.rollout import HOP_SECONDS, rollout
+
 from planners.base import Budget
-from planners.search import clear_of_edges
-from planners.suite import Case, Suite
+from planners.search.tree import clear_of_edges
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
 MIN_SPEED = 0.1        # m/s: slower apexes are dropped (the planners' floor is 0.3 m/s)
@@ -76,7 +71,6 @@ EDGE_MARGIN = 0.02     # m: hops landing this close to an edge are searched last
 CAREFUL_SPEED = 0.3    # m/s: ... and so are hops to apexes slower than this (the planners' floor) ...
 TRIP_MARGIN = 0.01     # m: ... and hops whose foot clears the terrain at the apex by less than this
 DEFAULT_BUDGET = Budget(max_nodes=600_000, max_time_s=600.0)   # per case, all passes together
-CACHE_VERSION = 1      # bump when a change invalidates cached verdicts
 
 
 @dataclass(frozen=True)
@@ -230,8 +224,6 @@ def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float,
     Returns {"ok", "replans", "hops_done", "failure", "final_x", "drift_hop", "leg_angles", "footholds",
     "apexes"}: ok when every hop succeeds and the last apex is at or past ``goal_x``; ``drift_hop`` is the first
     hop at whose start Drake had drifted (None if never)."""
-    from drakeslip.simulate import simulate
-
     plan = {"start": 0, "from": tuple(apex), **witness}
     log = {"replans": 0, "drift_hop": None, "stuck": False}
 
@@ -251,13 +243,14 @@ def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float,
             j = 0
         return plan["leg_angles"][j]
 
-    sim = simulate(apex, policy, terrain, params, max_time=5.0 * (len(witness["leg_angles"]) + 20), log=False)
-    final_x = sim.apexes[-1].x if sim.apexes else apex.x
-    return {"ok": sim.failure is None and not log["stuck"] and final_x >= goal_x, "replans": log["replans"],
-            "hops_done": len(sim.apexes), "failure": sim.failure.name if sim.failure else None,
+    run = rollout(apex, terrain, params, leg_angles=policy, backend="drake",
+                  max_time=HOP_SECONDS * (len(witness["leg_angles"]) + 20))
+    final_x = run.apexes[-1].x if run.apexes else apex.x
+    return {"ok": run.ok and not log["stuck"] and final_x >= goal_x, "replans": log["replans"],
+            "hops_done": len(run.apexes), "failure": run.failure.name if run.failure else None,
             "final_x": float(final_x), "drift_hop": log["drift_hop"],
-            "leg_angles": [float(v) for v in sim.leg_angles], "footholds": [float(v) for v in sim.footholds],
-            "apexes": [[float(v) for v in e] for e in sim.apexes]}
+            "leg_angles": [float(v) for v in run.leg_angles], "footholds": [float(v) for v in run.footholds],
+            "apexes": [[float(v) for v in e] for e in run.apexes]}
 
 
 def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, levels=LEVELS,
@@ -335,114 +328,3 @@ def _replan(apex, terrain, goal_x, params, res, min_speed, deadline) -> dict | N
     search = _Pass(apex, terrain, goal_x, params, res, min_speed)
     node, _ = search.next_goal(REPLAN_NODES, deadline)
     return None if node is None else search.witness(node)
-
-
-# ---- suites: case selection, a resumable per-case cache, the results file ------------------------------
-
-def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = None, ids=None) -> list[Case]:
-    """The cases named by ``ids``; else ``n_cases`` of them (the first ones, or a random sample if ``seed`` is
-    given); else all."""
-    if ids:
-        by_id = {c.id: c for c in suite.cases}
-        unknown = [i for i in ids if i not in by_id]
-        if unknown:
-            raise ValueError(f"unknown case id(s) {unknown} in suite {suite.name!r} "
-                             f"(its ids look like {suite.cases[0].id!r})")
-        return [by_id[i] for i in ids]
-    if n_cases is not None and (isinstance(n_cases, bool) or not isinstance(n_cases, int) or n_cases < 1):
-        raise ValueError(f"the number of cases must be a positive integer, got {n_cases!r}")
-    n = min(n_cases or len(suite.cases), len(suite.cases))
-    if seed is None:
-        return list(suite.cases[:n])
-    picked = sorted(random.Random(seed).sample(range(len(suite.cases)), n))
-    return [suite.cases[i] for i in picked]
-
-
-def _config(levels, min_speed, drake_check, max_witnesses) -> dict:
-    return {"levels": [asdict(r) for r in levels], "min_speed": min_speed, "drake_check": drake_check,
-            "max_witnesses": max_witnesses, "version": CACHE_VERSION}
-
-
-def case_key(case: Case, goal_x: float, friction: float, config: dict) -> str:
-    """Identifies a case and the oracle's settings (not its budget), so a cached verdict is reused only for
-    the same question."""
-    blob = json.dumps([case.terrain.to_dict(), list(case.apex), goal_x, friction, config], sort_keys=True)
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
-
-
-def load_cache(path: Path) -> dict:
-    """{key: record} from the JSON-lines cache."""
-    return read_jsonl_cache(path, lambda e: e["key"], lambda e: e["result"])
-
-
-def summarize(records: list) -> dict:
-    n = len(records)
-    count = {v: sum(r["verdict"] == v for r in records) for v in (TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN)}
-    return {"cases": n, "traversable": count[TRAVERSABLE], "not_traversable": count[NOT_TRAVERSABLE],
-            "unknown": count[UNKNOWN], "decided_rate": (n - count[UNKNOWN]) / n if n else 0.0,
-            # the suite's best possible success rate; with unknowns it lies between ceiling and ceiling_upper
-            "ceiling": count[TRAVERSABLE] / n if n else 0.0,
-            "ceiling_upper": (count[TRAVERSABLE] + count[UNKNOWN]) / n if n else 0.0,
-            "time_s_median": float(np.median([r["time_s"] for r in records])) if n else 0.0}
-
-
-def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
-                levels=LEVELS, min_speed: float = MIN_SPEED, drake_check: bool = True,
-                max_witnesses: int = MAX_WITNESSES, progress: bool = True, jobs: int = 1) -> dict:
-    """Run the oracle on ``cases`` of ``suite``, in ``jobs`` processes. Each finished case is appended to
-    ``cache_path`` (JSON lines) and reused by a later run with the same settings; a cached ``unknown`` is rerun
-    when the budget grew. The time budget is wall-clock per case, so ``jobs`` should not exceed the cores."""
-    from tqdm import tqdm
-
-    config = _config(levels, min_speed, drake_check, max_witnesses)
-    params = SlipParams(friction=suite.friction)
-    cache_path = Path(cache_path) if cache_path else None
-    cache = load_cache(cache_path) if cache_path else {}
-    records, todo = {}, []
-    for c in cases:
-        key = case_key(c, suite.goal_x, suite.friction, config)
-        hit = cache.get(key)
-        if hit is not None and (hit["verdict"] != UNKNOWN or (hit["budget"]["max_nodes"] >= budget.max_nodes
-                                                              and hit["budget"]["max_time_s"] >= budget.max_time_s)):
-            records[c.id] = {**hit, "id": c.id}
-        else:
-            todo.append((key, c))
-    arguments = lambda c: (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check,
-                           max_witnesses)
-    bar = tqdm(total=len(todo), desc=f"model check {suite.name}", unit="case", disable=not progress)
-    sink = open_jsonl_cache(cache_path) if cache_path else None
-    try:
-        for (key, c), result in results_of(model_check, [((key, c), arguments(c)) for key, c in todo], jobs):
-            records[c.id] = {"id": c.id, **result, "budget": asdict(budget)}
-            if sink:
-                append_jsonl(sink, {"key": key, "result": records[c.id]})
-            bar.update(1)
-            s = summarize(list(records.values()))
-            bar.set_postfix(T=s["traversable"], N=s["not_traversable"], U=s["unknown"])
-    finally:
-        bar.close()
-        if sink:
-            sink.close()
-    ordered = [records[c.id] for c in cases]
-    return {"suite": suite.name, "goal_x": suite.goal_x, "friction": suite.friction, "config": config,
-            "cases": ordered, "summary": summarize(ordered)}
-
-
-def cross_check(oracle: dict, evaluation: dict) -> dict:
-    """Soundness against planners: for each planner of an ``examples/evaluate.py`` results dict, the cases it
-    crossed that the oracle calls not traversable (``contradicted``: must be empty) and the cases it failed
-    that the oracle calls traversable (``missed``). Only cases both files hold are compared."""
-    verdicts = {c["id"]: c["verdict"] for c in oracle["cases"]}
-    out = {}
-    for name, block in evaluation["planners"].items():
-        cases = [c for c in block["cases"] if c["id"] in verdicts]
-        out[name] = {"compared": len(cases), "crossed": sum(c["success"] for c in cases),
-                     "contradicted": [c["id"] for c in cases if c["success"] and verdicts[c["id"]] == NOT_TRAVERSABLE],
-                     "missed": [c["id"] for c in cases if not c["success"] and verdicts[c["id"]] == TRAVERSABLE]}
-    return out
-
-
-def write_json(results: dict, path) -> None:
-    """Write atomically: a temporary file renamed over the target."""
-    with atomic_write(path, "w") as f:
-        json.dump(results, f, indent=1)

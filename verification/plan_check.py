@@ -1,7 +1,7 @@
 """Check a plan on the Drake hybrid simulator: a certificate with the run's safety margins, or a counterexample.
 
-``check_plan(record, mode)`` executes a stored plan (``planners.plan_io.PlanRecord``) from its initial apex on
-the whole terrain with ``drakeslip.simulate``:
+``check_plan(record, mode)`` executes a stored plan (``planners.formats.plan.PlanRecord``) from its initial apex on
+the whole terrain with ``drakeslip.simulation``:
 
 * ``"angles"`` commands the plan's leg angles open-loop (what the planner predicted on the fast backend);
 * ``"footholds"`` aims at the plan's footholds through the step-length controller from the apex actually
@@ -27,13 +27,14 @@ from typing import NamedTuple
 
 import numpy as np
 
-from drakeslip import FailureMode
+from drakeslip import FailureMode, StepLengthController
 from drakeslip import dynamics as dyn
-from drakeslip.controller import StepLengthController
 from drakeslip.hopper import HybridState, Mode
-from drakeslip.simulate import IntegratorConfig, SimulationResult, simulate
+from drakeslip.rollout import rollout
+from drakeslip.simulation import IntegratorConfig, SimulationResult
 from drakeslip.terrain import Terrain
-from planners.plan_io import PlanRecord
+
+from planners.formats.plan import PlanRecord
 
 MODES = ("angles", "footholds", "auto")
 _MODE, _DEPLOYED, _ANGLE, _FOOT_X, _FOOT_Z = (HybridState._fields.index(f)
@@ -185,14 +186,12 @@ def check_plan(record: PlanRecord, mode: str = "auto", controller: StepLengthCon
         if bad.size:
             raise ValueError(f"mode 'angles' needs every leg angle finite and within (-pi/2, pi/2): "
                              f"leg_angles[{bad[0]}] = {record.leg_angles[bad[0]]}; use mode 'footholds'")
-        commands = [float(a) for a in record.leg_angles]
+        commands = {"leg_angles": [float(a) for a in record.leg_angles]}
     else:
-        controller = controller or StepLengthController.load_default()
-        controller.check_params(params)
-        commands = lambda apex, hop: controller.leg_angle(apex, record.footholds[hop], terrain)
-    # Every hop is capped at max_hop_time (5 s, a STALL beyond), so this total never cuts a plan short.
-    sim = simulate(record.apex, commands, terrain, params, max_hops=n, max_time=5.0 * (n + 1),
-                   integrator=integrator)
+        commands = {"footholds": [float(x) for x in record.footholds],
+                    "controller": controller or StepLengthController.load_default()}
+    sim = rollout(record.apex, terrain, params, **commands, backend="drake", log=True,
+                  integrator=integrator).simulation
     if sim.failure is not None:
         return _counterexample(sim, record, mode)
     if len(sim.apexes) != n:
@@ -200,15 +199,9 @@ def check_plan(record: PlanRecord, mode: str = "auto", controller: StepLengthCon
     return _certificate(sim, record, mode)
 
 
-def failed_hop(sim: SimulationResult) -> int:
-    """The hop (0 = from the start apex) in which a failed run failed. The start apex is not in the event log,
-    so the logged apexes up to the failure (a TRIP is logged at its own apex) count the hops begun before it."""
-    return sum(1 for e in sim.events if e.kind == "apex" and e.time <= sim.failure_event.time)
-
-
 def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str) -> Counterexample:
     e = sim.failure_event
-    hop = failed_hop(sim)
+    hop = sim.failed_hop
     h = HybridState(sim.hybrid[-1])  # logged after the failure's reset: mode FAILED and the failure code
     hybrid = {k: float(v) for k, v in zip(HybridState._fields, h[:])}
     hybrid.update(mode=Mode(int(h.mode)).name, leg_deployed=int(h.leg_deployed), hops=int(h.hops),

@@ -14,28 +14,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from drakeslip import FailureMode, step_batch
-from drakeslip.controller import StepLengthController
-from drakeslip.simulate import simulate
-from planners.plan_io import PlanRecord
+from drakeslip import FailureMode, StepLengthController
+from drakeslip.rollout import BACKENDS, rollouts
 
-from .plan_check import failed_hop
-
-BACKENDS = ("fast", "drake")
-Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
-# A noisy command is clipped just short of a horizontal leg, the step map's domain; such a hop fails anyway.
-ANGLE_LIMIT = math.pi / 2 - 1e-9
-
-
-def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """The Wilson score interval for a binomial rate: unlike the normal approximation it stays inside [0, 1]
-    and is not empty at 0 or n successes, the usual outcome for a good plan."""
-    if n <= 0:
-        raise ValueError(f"need at least one sample, got n={n}")
-    p = successes / n
-    centre = (p + z * z / (2 * n)) / (1 + z * z / n)
-    half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
-    return max(0.0, centre - half), min(1.0, centre + half)
+from planners.formats.plan import PlanRecord
+from verification.report import wilson_interval
 
 
 @dataclass
@@ -132,8 +115,7 @@ def success_probability(record: PlanRecord, n: int, apex_noise=(0.0, 0.0, 0.0), 
     errors = rng.normal(size=(n, len(record.footholds))) * float(angle_noise)
     controller = controller or StepLengthController.load_default()
     controller.check_params(record.params)
-    run = _run_fast if backend == "fast" else _run_drake
-    failures, hops = run(record, start, errors, controller)
+    failures, hops = _run(record, start, errors, controller, backend)
     return Robustness(record, apex_noise, float(angle_noise), seed, backend, start, errors, failures, hops)
 
 
@@ -145,41 +127,16 @@ def confirm_on_drake(result: Robustness, n_small: int,
     if not (isinstance(n_small, int) and 1 <= n_small <= result.n):
         raise ValueError(f"n_small must be an integer in [1, {result.n}], got {n_small!r}")
     controller = controller or StepLengthController.load_default()
-    drake, _ = _run_drake(result.record, result.start[:n_small], result.angle_errors[:n_small], controller)
+    drake, _ = _run(result.record, result.start[:n_small], result.angle_errors[:n_small], controller, "drake")
     fast = result.failures[:n_small]
     name = lambda code: FailureMode(int(code)).name if code else "ok"
     return DrakeConfirmation(fast, drake, [(i, name(fast[i]), name(drake[i]))
                                            for i in np.flatnonzero(fast != drake)])
 
 
-def _run_fast(record: PlanRecord, start, errors, controller):
-    """All draws hop by hop, the ones still alive in one controller call and one batched step per hop."""
-    n = start.shape[0]
-    failures, hops = np.zeros(n, dtype=np.int64), np.full(n, -1)
-    apex, alive = start.copy(), np.arange(n)
-    for k, foothold in enumerate(record.footholds):
-        angles = controller.leg_angles(apex[alive], np.full(alive.size, foothold), record.terrain) + errors[alive, k]
-        r = step_batch(apex[alive], np.clip(angles, -ANGLE_LIMIT, ANGLE_LIMIT), record.terrain, record.params)
-        failures[alive[~r.ok]], hops[alive[~r.ok]] = r.failure[~r.ok], k
-        apex[alive] = np.column_stack([r.next_x, r.next_z, r.next_xdot])
-        alive = alive[r.ok]
-        if alive.size == 0:
-            break
-    return failures, hops
-
-
-def _run_drake(record: PlanRecord, start, errors, controller):
-    failures, hops = np.zeros(start.shape[0], dtype=np.int64), np.full(start.shape[0], -1)
-    n_hops = len(record.footholds)
-    for i, apex in enumerate(start):
-        if apex[1] <= record.terrain.height_at(apex[0]):
-            # A start below the ground has its foot below it too: the fast backend's TRIP at the first apex.
-            failures[i], hops[i] = FailureMode.TRIP, 0
-            continue
-        policy = lambda a, hop: float(np.clip(controller.leg_angle(a, record.footholds[hop], record.terrain)
-                                              + errors[i, hop], -ANGLE_LIMIT, ANGLE_LIMIT))
-        sim = simulate(apex, policy, record.terrain, record.params, max_hops=n_hops, max_time=5.0 * (n_hops + 1),
-                       log=False)
-        if sim.failure is not None:
-            failures[i], hops[i] = sim.failure, failed_hop(sim)
-    return failures, hops
+def _run(record: PlanRecord, start, errors, controller, backend: str):
+    """Every draw's FailureMode code (0 = success) and the hop it failed in (-1 = success)."""
+    runs = rollouts(start, record.terrain, record.params, footholds=list(record.footholds), controller=controller,
+                    backend=backend, angle_errors=errors)
+    return (np.array([int(r.failure or 0) for r in runs], dtype=np.int64),
+            np.array([r.failed_hop for r in runs], dtype=np.int64))

@@ -1,0 +1,163 @@
+"""What every script of the toolkit shares: argument types that reject bad values up front, the flags that mean
+the same everywhere, and the exit codes.
+
+Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop); 2 a usage or input
+error, reported in one line before any work starts. Heavy libraries (torch, pydrake, matplotlib, ray) are not
+imported here, so a script's ``--help`` is fast.
+"""
+from __future__ import annotations
+
+import argparse
+import math
+import os
+import shlex
+import sys
+from pathlib import Path
+
+from drakeslip.jobs.executors import make_executor
+
+OK, FAILED, USAGE = 0, 1, 2
+
+
+class Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
+    """Help with the module doc as written and every default shown (none for a flag without one)."""
+
+    def _get_help_string(self, action):
+        if action.default is None or action.default is False or action.required:
+            return action.help
+        return super()._get_help_string(action)
+
+
+class ArgumentParser(argparse.ArgumentParser):
+    """An argparse parser whose errors are one line on stderr and exit status 2. A flag must be spelled out in
+    full (``--seed`` is not taken for ``--seeds``)."""
+
+    def __init__(self, description: str | None = None, **kwargs):
+        super().__init__(description=description, formatter_class=Formatter, allow_abbrev=False, **kwargs)
+
+    def error(self, message: str):
+        self.exit(USAGE, f"{self.prog}: error: {message}\n")
+
+
+def integer(low: int | None = None, high: int | None = None):
+    """An argument type: an integer in [low, high]."""
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be an integer, got {text!r}") from None
+        if (low is not None and value < low) or (high is not None and value > high):
+            raise argparse.ArgumentTypeError(f"must be an integer in [{low if low is not None else '-inf'}, "
+                                             f"{high if high is not None else 'inf'}], got {text!r}")
+        return value
+    return parse
+
+
+def number(low: float | None = None, high: float | None = None, strict_low: bool = False):
+    """An argument type: a finite number in [low, high] (above ``low`` if ``strict_low``); NaN and infinities are
+    refused."""
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"must be a number, got {text!r}") from None
+        too_low = low is not None and (value <= low if strict_low else value < low)
+        if not math.isfinite(value) or too_low or (high is not None and value > high):
+            where = f"{'>' if strict_low else '>='} {low}" if low is not None else ""
+            where += (" and " if where and high is not None else "") + (f"<= {high}" if high is not None else "")
+            raise argparse.ArgumentTypeError(f"must be a finite number{' ' + where if where else ''}, got {text!r}")
+        return value
+    return parse
+
+
+positive_int = integer(1)
+non_negative_int = integer(0)
+positive = number(0.0, strict_low=True)
+non_negative = number(0.0)
+finite = number()
+probability = number(0.0, 1.0)
+
+
+def numbers(count: int, each=finite):
+    """An argument type: ``count`` comma-separated numbers, each checked by ``each``."""
+    def parse(text: str) -> tuple:
+        parts = text.split(",")
+        if len(parts) != count:
+            raise argparse.ArgumentTypeError(f"must be {count} comma-separated numbers, got {text!r}")
+        return tuple(each(p) for p in parts)
+    return parse
+
+
+def names(text: str) -> list[str]:
+    """An argument type: a non-empty comma-separated list of names."""
+    items = [t.strip() for t in text.split(",") if t.strip()]
+    if not items:
+        raise argparse.ArgumentTypeError(f"must name at least one entry, got {text!r}")
+    return items
+
+
+def input_file(text: str) -> Path:
+    """An argument type: a file that exists."""
+    path = Path(text)
+    if not path.is_file():
+        raise argparse.ArgumentTypeError(f"no such file: {text!r}")
+    return path
+
+
+def output_file(*extensions: str):
+    """An argument type: a path a file can be written to, ending in one of ``extensions`` (any if none): not an
+    existing folder, and not inside something that is a file."""
+    def parse(text: str) -> Path:
+        path = Path(text)
+        if extensions and path.suffix.lower() not in extensions:
+            raise argparse.ArgumentTypeError(f"must end in {' or '.join(extensions)}, got {text!r}")
+        if path.is_dir():
+            raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name")
+        for parent in path.parents:
+            if parent.exists():
+                if not parent.is_dir():
+                    raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(parent)!r} is a file")
+                if not os.access(parent, os.W_OK):
+                    raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(parent)!r} is not writable")
+                break
+        return path
+    return parse
+
+
+def output_folder(text: str) -> Path:
+    """An argument type: a folder that exists or can be made: not a file, not inside a file, writable."""
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is a file, not a folder")
+    for folder in (path, *path.parents):
+        if folder.exists():
+            if not folder.is_dir():
+                raise argparse.ArgumentTypeError(f"cannot make {text!r}: {str(folder)!r} is a file")
+            if not os.access(folder, os.W_OK):
+                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(folder)!r} is not writable")
+            break
+    return path
+
+
+def add_parallel(ap: argparse.ArgumentParser, jobs: int = 1) -> None:
+    """``--jobs``, ``--executor`` and ``--address``: where the independent tasks of a job run."""
+    ap.add_argument("--jobs", type=positive_int, default=jobs,
+                    help="tasks at a time: local worker processes (1: this process), or tasks in flight on Ray")
+    ap.add_argument("--executor", choices=("local", "ray"), default="local",
+                    help="local processes on this machine, or a Ray cluster (results come back to this process)")
+    ap.add_argument("--address", default=None,
+                    help="the Ray cluster's address (e.g. auto or ray://host:10001; default: a local Ray instance)")
+
+
+def executor(args):
+    """The executor ``add_parallel``'s flags ask for."""
+    if args.executor == "local" and args.address is not None:
+        sys.stderr.write(f"{Path(sys.argv[0]).name}: error: --address is for --executor ray\n")
+        raise SystemExit(USAGE)
+    return make_executor(args.executor, args.jobs, args.address)
+
+
+def announce(argv=None) -> None:
+    """Print the command line that reproduces this run."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    print("reproduce with: python3 " + " ".join(shlex.quote(a) for a in [sys.argv[0], *args]), flush=True)

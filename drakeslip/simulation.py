@@ -1,0 +1,182 @@
+"""Multi-hop simulation of the SlipHopper in Drake's Simulator, and the Drake backend of the step map."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Callable, Sequence
+
+import numpy as np
+from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
+from pydrake.systems.framework import DiagramBuilder, EventStatus
+from pydrake.systems.primitives import LogVectorOutput
+
+from drakeslip.hopper import ApexPolicy, HybridEvent, HybridState, Mode, SlipHopper
+from drakeslip.params import SlipParams
+from drakeslip.state import ApexState, FailureMode, StepResult, check_apex
+from drakeslip.terrain import Terrain
+
+
+@dataclass(frozen=True)
+class IntegratorConfig:
+    """Drake integrator settings. ``scheme`` is any name accepted by ResetIntegratorFromFlags
+    (error-controlled: runge_kutta3, runge_kutta5, bogacki_shampine3, radau3, ...)."""
+
+    scheme: str = "runge_kutta5"
+    accuracy: float = 1e-8
+    # Guards are only checked at step ends, so an event undone within one step is missed: a foot that touches
+    # down within one step's travel of a ditch edge, or a stance shorter than a step. 2 ms (about the fast
+    # backend's RK4 stance step) keeps that window to a few mm for ~10 % more time than 5 ms.
+    max_step: float = 2e-3
+
+    def __post_init__(self):
+        if not (self.accuracy > 0 and self.max_step > 0):
+            raise ValueError(f"IntegratorConfig needs positive accuracy and max_step, got {self}")
+
+
+@dataclass
+class SimulationResult:
+    """A logged multi-hop trajectory.
+
+    ``times`` (N,) and ``states`` (N, 4) are the body trajectory (x, z, xdot, zdot) at every integrator step;
+    ``hybrid`` (N, 7) is the HybridState alongside; ``events`` the HybridEvent log; ``failure`` the first
+    failure (None if the run ended by running out of commands or hops); ``failure_event`` its log entry.
+    """
+
+    times: np.ndarray
+    states: np.ndarray
+    hybrid: np.ndarray
+    events: tuple
+    failure: FailureMode | None
+    failure_event: HybridEvent | None
+    integrator_steps: int
+    params: SlipParams
+    terrain: Terrain
+    leg_angles: list = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return self.failure is None
+
+    @property
+    def apexes(self) -> list[ApexState]:
+        """Every apex reached after the start (the start apex is not included)."""
+        return [ApexState(*e.state[:3]) for e in self.events if e.kind == "apex"]
+
+    @property
+    def footholds(self) -> list[float]:
+        return [e.foot[0] for e in self.events if e.kind == "touchdown"]
+
+    @property
+    def failed_hop(self) -> int:
+        """The hop (0 = the one from the start apex) in which the run failed, -1 without a failure. The start apex
+        is not in the event log, so the logged apexes up to the failure (a TRIP is logged at its own apex) count
+        the hops begun before it."""
+        if self.failure_event is None:
+            return -1
+        return sum(1 for e in self.events if e.kind == "apex" and e.time <= self.failure_event.time)
+
+
+def _policy_from(leg_angles) -> Callable:
+    if callable(leg_angles):
+        return leg_angles
+    angles = [float(a) for a in leg_angles]
+    return lambda apex, hop: angles[hop] if hop < len(angles) else None
+
+
+def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | None = None,
+             params: SlipParams | None = None, max_hops: int | None = None, max_time: float = 60.0,
+             max_hop_time: float = 5.0, integrator: IntegratorConfig | None = None,
+             log: bool = True) -> SimulationResult:
+    """Simulate hops from ``apex`` in Drake until the first failure, the commands run out, ``max_hops``
+    apexes are reached, or ``max_time``. ``leg_angles`` is a list (one per hop) or a callback
+    ``f(apex: ApexState, hop_index) -> angle | None``, called at each apex. A hop that takes longer than
+    ``max_hop_time`` is a STALL."""
+    params = params or SlipParams()
+    terrain = terrain or Terrain.flat()
+    apex = check_apex(apex, terrain, params)
+    integrator = integrator or IntegratorConfig()
+    if max_hops is not None and max_hops < 1:
+        raise ValueError(f"max_hops must be at least 1, got {max_hops}")
+    used_angles: list[float] = []
+    user_policy = _policy_from(leg_angles)
+
+    def policy(a, hop):
+        if max_hops is not None and hop >= max_hops:
+            return None
+        angle = user_policy(a, hop)
+        if angle is not None and len(used_angles) == hop:
+            used_angles.append(float(angle))
+        return angle
+
+    builder = DiagramBuilder()
+    hopper = builder.AddSystem(SlipHopper(params, terrain))
+    controller = builder.AddSystem(ApexPolicy(policy))
+    builder.Connect(hopper.GetOutputPort("state"), controller.get_input_port(0))
+    builder.Connect(hopper.GetOutputPort("hybrid"), controller.get_input_port(1))
+    builder.Connect(controller.get_output_port(0), hopper.get_input_port(0))
+    state_log = LogVectorOutput(hopper.GetOutputPort("state"), builder) if log else None
+    hybrid_log = LogVectorOutput(hopper.GetOutputPort("hybrid"), builder) if log else None
+    diagram = builder.Build()
+
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    hopper_context = hopper.GetMyMutableContextFromRoot(context)
+    hopper.set_apex(hopper_context, apex)
+    ResetIntegratorFromFlags(simulator, integrator.scheme, integrator.max_step)
+    context.SetAccuracy(integrator.accuracy)
+
+    last_liftoff = [0.0, 0]
+    timed_out = [False]
+
+    def monitor(root_context):
+        c = hopper.GetMyContextFromRoot(root_context)
+        h = hopper.hybrid(c)
+        if h.mode in (Mode.FAILED, Mode.HALTED):
+            return EventStatus.ReachedTermination(hopper, Mode(int(h.mode)).name)
+        if h.hops != last_liftoff[1]:
+            last_liftoff[:] = [root_context.get_time(), h.hops]
+        if root_context.get_time() - last_liftoff[0] > max_hop_time:
+            timed_out[0] = True
+            return EventStatus.ReachedTermination(hopper, "hop time-out")
+        return EventStatus.DidNothing()
+
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    simulator.AdvanceTo(max_time)
+
+    events = hopper.event_log(hopper_context)
+    h = hopper.hybrid(hopper_context)
+    failure_event = next((e for e in events if e.kind == "failure"), None)
+    failure = failure_event.failure if failure_event else None
+    if failure is None and timed_out[0]:
+        s = hopper.body(hopper_context)
+        failure = FailureMode.STALL
+        failure_event = HybridEvent("failure", context.get_time(), tuple(float(v) for v in s[:]), None,
+                                    float(h.leg_angle), failure)
+        events = events + (failure_event,)
+    if log:
+        slog, hlog = state_log.FindLog(context), hybrid_log.FindLog(context)
+        times, states, hybrid = slog.sample_times(), slog.data().T.copy(), hlog.data().T.copy()
+    else:
+        times, states, hybrid = np.zeros(0), np.zeros((0, 4)), np.zeros((0, len(HybridState._fields)))
+    return SimulationResult(times=times, states=states, hybrid=hybrid, events=events, failure=failure,
+                            failure_event=failure_event,
+                            integrator_steps=simulator.get_integrator().get_num_steps_taken(),
+                            params=params, terrain=terrain, leg_angles=used_angles)
+
+
+def drake_step(apex: ApexState, leg_angle: float, terrain: Terrain, params: SlipParams,
+               integrator: IntegratorConfig | None = None) -> StepResult:
+    """The step map f(a, t, theta) on the Drake hybrid simulator: one commanded hop, then halt at the apex."""
+    sim = simulate(apex, [leg_angle], terrain, params, integrator=integrator, log=False)
+    touchdown = next((e for e in sim.events if e.kind == "touchdown"), None)
+    touchdown_x = touchdown.foot[0] if touchdown else math.nan
+    if sim.failure is not None:
+        e = sim.failure_event
+        return StepResult(ok=False, failure=sim.failure, touchdown_x=touchdown_x, next_apex=None, time=e.time,
+                          end_state=e.state, work=sim.integrator_steps)
+    apex_event = next((e for e in sim.events if e.kind == "apex"), None)
+    if apex_event is None:  # simulate() stops at a failure, a halt at an apex, or a time-out (a STALL)
+        raise RuntimeError("Drake simulation ended without an apex or a failure")
+    return StepResult(ok=True, failure=None, touchdown_x=touchdown_x, next_apex=ApexState(*apex_event.state[:3]),
+                      time=apex_event.time, end_state=apex_event.state, work=sim.integrator_steps)

@@ -1,0 +1,155 @@
+"""Plans as self-contained JSON files (``"format": "drakeslip-plan/1"``), so a plan can be checked, replayed or
+stress-tested later without the planner, the suite or the random terrain generator that produced it.
+
+A file holds everything the plan's execution depends on: the initial apex, the whole terrain (cell heights,
+not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper's
+parameters, the goal, and the plan itself: footholds, leg angles and predicted apexes. A planner that does not
+predict angles or apexes (``lstm`` gives only the first angle) leaves NaN there, stored as ``null``.
+"""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.terrain import DITCH_HEIGHT, TERRAIN_FAMILIES
+
+from planners.base import Plan
+from planners.formats.suite import checked_number, required_field
+
+PLAN_FORMAT = "drakeslip-plan/1"
+
+
+@dataclass(frozen=True)
+class PlanRecord:
+    """One plan with its problem. ``leg_angles`` (N,) and ``apexes`` (N, 3) may hold NaN where the planner
+    made no prediction; ``footholds`` (N,) are always finite."""
+
+    planner: str
+    apex: ApexState
+    terrain: Terrain
+    params: SlipParams
+    goal_x: float
+    target_x: float
+    footholds: np.ndarray
+    leg_angles: np.ndarray
+    apexes: np.ndarray
+
+    def __post_init__(self):
+        n = self.footholds.shape
+        if len(n) != 1 or n[0] == 0 or not np.all(np.isfinite(self.footholds)):
+            raise ValueError(f"a plan needs a non-empty list of finite footholds, got {self.footholds!r}")
+        if self.leg_angles.shape != n or self.apexes.shape != (n[0], 3):
+            raise ValueError(f"{n[0]} footholds need {n[0]} leg angles and {n[0]} apexes, got shapes "
+                             f"{self.leg_angles.shape} and {self.apexes.shape}")
+
+    @classmethod
+    def from_plan(cls, plan: Plan, apex, terrain, goal_x: float, params: SlipParams) -> "PlanRecord":
+        """``terrain`` is a Terrain, its ``to_dict()`` form, or a generator spec ``{"family", "seed"}``. Pass the
+        whole terrain, not the perception window the planner saw, so the check covers the real ground."""
+        if not plan.success:
+            raise ValueError(f"planner {plan.planner!r} found no plan to save: {plan.message}")
+        return cls(plan.planner, ApexState(*map(float, apex)).validate(), _terrain(terrain), params,
+                   float(goal_x), float(plan.target_x), np.array(plan.footholds, dtype=float),
+                   np.array(plan.leg_angles, dtype=float), np.array(plan.apexes, dtype=float).reshape(-1, 3))
+
+    def to_dict(self) -> dict:
+        return {"format": PLAN_FORMAT, "planner": self.planner, "apex": self.apex._asdict(),
+                "terrain": {**self.terrain.to_dict(), "ditch_height": self.terrain.ditch_height},
+                "params": asdict(self.params), "goal_x": self.goal_x, "target_x": self.target_x,
+                "footholds": self.footholds.tolist(), "leg_angles": _nulls(self.leg_angles),
+                "apexes": _nulls(self.apexes)}
+
+    @classmethod
+    def from_dict(cls, d, source: str = "plan") -> "PlanRecord":
+        """Check every field; a bad one raises ValueError naming ``source`` and the field (e.g. footholds[2])."""
+        fmt = required_field(d, "format", source)
+        if fmt != PLAN_FORMAT:
+            raise ValueError(f"{source}: format must be {PLAN_FORMAT!r}, got {fmt!r}")
+        planner = required_field(d, "planner", source)
+        if not isinstance(planner, str):
+            raise ValueError(f"{source}: planner must be a string, got {planner!r}")
+        t = required_field(d, "terrain", source)
+        where = f"{source}: terrain"
+        heights = required_field(t, "heights", where)
+        if not isinstance(heights, list) or not heights:
+            raise ValueError(f"{where}.heights must be a non-empty list of numbers")
+        terrain = Terrain([checked_number(h, f"{where}.heights[{j}]") for j, h in enumerate(heights)],
+                          cell=checked_number(required_field(t, "cell", where), f"{where}.cell", positive=True),
+                          x0=checked_number(required_field(t, "x0", where), f"{where}.x0"),
+                          ditch_height=checked_number(required_field(t, "ditch_height", where), f"{where}.ditch_height"))
+        a = required_field(d, "apex", source)
+        apex = ApexState(*(checked_number(required_field(a, k, f"{source}: apex"), f"{source}: apex.{k}") for k in ApexState._fields))
+        if apex.z <= terrain.height_at(apex.x):
+            raise ValueError(f"{source}: apex.z={apex.z} is not above the terrain at x={apex.x}")
+        p = required_field(d, "params", source)
+        if not isinstance(p, dict):
+            raise ValueError(f"{source}: params must be an object, got {type(p).__name__}")
+        try:
+            params = SlipParams(**p)
+        except (TypeError, ValueError) as exc:
+            raise ValueError(f"{source}: params: {exc}") from exc
+        footholds = [checked_number(v, f"{source}: footholds[{i}]") for i, v in enumerate(_list(d, "footholds", source))]
+        n = len(footholds)
+        angles = [_optional(v, f"{source}: leg_angles[{i}]") for i, v in enumerate(_list(d, "leg_angles", source, n))]
+        apexes = []
+        for i, row in enumerate(_list(d, "apexes", source, n)):
+            if not isinstance(row, list) or len(row) != 3:
+                raise ValueError(f"{source}: apexes[{i}] must be [x, z, xdot], got {row!r}")
+            apexes.append([_optional(v, f"{source}: apexes[{i}][{j}]") for j, v in enumerate(row)])
+        return cls(planner, apex, terrain, params, checked_number(required_field(d, "goal_x", source), f"{source}: goal_x"),
+                   checked_number(required_field(d, "target_x", source), f"{source}: target_x"), np.array(footholds),
+                   np.array(angles), np.array(apexes).reshape(n, 3))
+
+    def save(self, path) -> None:
+        """Write atomically (temporary file, then rename); strict JSON: NaN is written as null."""
+        with atomic_write(path, "w") as f:
+            json.dump(self.to_dict(), f, indent=1, allow_nan=False)
+
+
+def save_plan(path, plan: Plan, apex, terrain, goal_x: float, params: SlipParams) -> PlanRecord:
+    """Write ``plan`` (a planner's result for this apex, terrain, goal and parameters) to ``path``."""
+    record = PlanRecord.from_plan(plan, apex, terrain, goal_x, params)
+    record.save(path)
+    return record
+
+
+def load_plan(path) -> PlanRecord:
+    """Read a plan file; a malformed one raises ValueError naming the file and the bad field."""
+    return PlanRecord.from_dict(read_json(path, "plan file"), source=f"plan file {path}")
+
+
+def _terrain(spec) -> Terrain:
+    if isinstance(spec, Terrain):
+        return spec
+    if isinstance(spec, dict) and "family" in spec:
+        family, seed = spec["family"], required_field(spec, "seed", "terrain spec")
+        if family not in TERRAIN_FAMILIES:
+            raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+        return TERRAIN_FAMILIES[family](int(seed))
+    if isinstance(spec, dict):
+        x0, cell, heights = (required_field(spec, key, "terrain") for key in ("x0", "cell", "heights"))
+        return Terrain(heights, cell, x0, spec.get("ditch_height", DITCH_HEIGHT))
+    raise TypeError(f"terrain must be a Terrain, its to_dict() form or {{'family', 'seed'}}, got {spec!r}")
+
+
+def _nulls(values: np.ndarray) -> list:
+    """NaN -> None, element-wise on nested lists (JSON has no NaN)."""
+    return [_nulls(v) if isinstance(v, np.ndarray) else (None if math.isnan(v) else float(v)) for v in values]
+
+
+def _optional(value, where: str) -> float:
+    """A number or null (NaN: the planner made no prediction)."""
+    return math.nan if value is None else checked_number(value, where)
+
+
+def _list(d, key: str, source: str, length: int | None = None) -> list:
+    value = required_field(d, key, source)
+    if not isinstance(value, list) or not value or (length is not None and len(value) != length):
+        size = "a non-empty list" if length is None else f"a list of {length} entries (one per foothold)"
+        raise ValueError(f"{source}: {key} must be {size}, got {value!r:.80}")
+    return value

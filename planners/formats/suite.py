@@ -1,0 +1,128 @@
+"""Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``)."""
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+
+from drakeslip import ApexState, Terrain
+from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.terrain import TERRAIN_FAMILIES
+
+SUITE_FORMAT = "drakeslip-suite/1"
+# The paper's protocol: 15 terrains per family, goal at x = 10 m, friction 0.8. Each terrain is paired with
+# 10 initial apex states: 5 forward speeds x 2 apex heights above the ground, from a slow low hop (energy
+# for about 0.85 m of height: it cannot climb the highest step levels) to a fast high one (1.46 m: it must
+# trade height for speed or bottom out). They start at x = -1 m: the terrain is flat for x < 1 m, and a 2 m
+# run-up lets the fastest start land before the first obstacle (from x = 0, a 3 m/s hop 0.9 m high can only
+# land at 1.0-1.2 m, in the first ditch of every ditch world).
+PAPER_TERRAINS = 15
+PAPER_SPEEDS = (1.0, 1.5, 2.0, 2.5, 3.0)
+PAPER_HEIGHTS = (0.8, 1.0)
+START_X = -1.0
+PAPER_GOAL_X = 10.0
+PAPER_FRICTION = 0.8
+# Base terrain seeds of the committed suites (terrain i uses base + i); fresh suites use other bases.
+COMMITTED_SEEDS = {"ditch": 1000, "step": 2000, "mixed": 3000}
+
+
+@dataclass(frozen=True)
+class Case:
+    id: str
+    terrain: Terrain
+    apex: ApexState
+
+
+@dataclass(frozen=True)
+class Suite:
+    name: str
+    goal_x: float
+    friction: float
+    cases: tuple
+
+    def to_dict(self) -> dict:
+        return {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction,
+                "cases": [{"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()} for c in self.cases]}
+
+
+def make_suite(family: str, seed: int, n_terrains: int = PAPER_TERRAINS, speeds=PAPER_SPEEDS,
+               heights=PAPER_HEIGHTS, goal_x: float = PAPER_GOAL_X, friction: float = PAPER_FRICTION,
+               name: str | None = None) -> Suite:
+    """``n_terrains`` terrains of ``family`` (seeds ``seed``, ``seed + 1``, ...) x every (speed, height)."""
+    if family not in TERRAIN_FAMILIES:
+        raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+    cases = []
+    for i in range(n_terrains):
+        terrain = TERRAIN_FAMILIES[family](seed + i)
+        for v in speeds:
+            for z in heights:
+                cases.append(Case(f"{family}-{seed + i}-v{v:g}-z{z:g}", terrain,
+                                  ApexState(START_X, z + terrain.height_at(START_X), v)))
+    return Suite(name or f"{family}-{seed}", goal_x, friction, tuple(cases))
+
+
+def save_suite(suite: Suite, path) -> None:
+    """Write atomically (temporary file, then rename)."""
+    with atomic_write(path, "w") as f:
+        json.dump(suite.to_dict(), f)
+
+
+def checked_number(value, where: str, positive: bool = False) -> float:
+    """``value`` as a float if it is a finite number (and positive if asked); else ValueError naming ``where``."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or (positive and value <= 0):
+        kind = "a positive finite number" if positive else "a finite number"
+        raise ValueError(f"{where} must be {kind}, got {value!r}")
+    return float(value)
+
+
+def required_field(d, key, where):
+    """``d[key]``, or a ValueError naming ``where`` when d is not an object or lacks the key (for JSON files)."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{where} must be an object, got {type(d).__name__}")
+    if key not in d:
+        raise ValueError(f"{where} is missing the field {key!r}")
+    return d[key]
+
+
+def suite_from_dict(d, source: str = "suite") -> Suite:
+    """Check every field of a suite document; a bad one raises ValueError naming it (e.g. cases[3].apex.z)."""
+    fmt = required_field(d, "format", source)
+    if fmt != SUITE_FORMAT:
+        raise ValueError(f"{source}: format must be {SUITE_FORMAT!r}, got {fmt!r}")
+    name = required_field(d, "name", source)
+    if not isinstance(name, str):
+        raise ValueError(f"{source}: name must be a string, got {name!r}")
+    goal_x = checked_number(required_field(d, "goal_x", source), f"{source}: goal_x")
+    friction = checked_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
+    raw_cases = required_field(d, "cases", source)
+    if not isinstance(raw_cases, list) or not raw_cases:
+        raise ValueError(f"{source}: cases must be a non-empty list")
+    cases, ids = [], set()
+    for i, c in enumerate(raw_cases):
+        where = f"{source}: cases[{i}]"
+        case_id = required_field(c, "id", where)
+        if not isinstance(case_id, str) or case_id in ids:
+            raise ValueError(f"{where}.id must be a unique string, got {case_id!r}")
+        ids.add(case_id)
+        t = required_field(c, "terrain", where)
+        x0 = checked_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
+        cell = checked_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
+        heights = required_field(t, "heights", f"{where}.terrain")
+        if not isinstance(heights, list) or not heights:
+            raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
+        for j, h in enumerate(heights):
+            checked_number(h, f"{where}.terrain.heights[{j}]")
+        terrain = Terrain(heights, cell=cell, x0=x0)
+        a = required_field(c, "apex", where)
+        apex = ApexState(*(checked_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
+        if apex.z <= terrain.height_at(apex.x):
+            raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
+        if apex.xdot <= 0:
+            raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
+        cases.append(Case(case_id, terrain, apex))
+    return Suite(name, goal_x, friction, tuple(cases))
+
+
+def load_suite(path) -> Suite:
+    return suite_from_dict(read_json(path, "suite file"), source=f"suite file {path}")

@@ -1,0 +1,161 @@
+"""LSTM-guided sampling (paper, section VI-A): the Step-space search with children sampled from the LSTM's
+distribution over the next foothold, given the path from the root to the node being expanded."""
+from __future__ import annotations
+
+import numpy as np
+
+from drakeslip import ApexState
+
+from planners.checkpoints import SUBCELL_WEIGHTS
+from planners.learned.inference import softmax
+from planners.learned.inputs import encode_window
+from planners.learned.lstm import FootstepDistribution, load_model
+from planners.search.step_space import StepSpacePlanner
+from planners.search.tree import Children, CostWeights, best_first, run_attempts
+
+# Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
+# controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
+MAX_NODES = 500
+
+
+class PathConditionedSampler:
+    """Next-foothold distributions for the nodes of one search tree. The LSTM state after each node's path is
+    cached, so expanding a node costs one LSTM step (the paper passes the whole root-to-node path as the past
+    steps; this is the same computation without repeating it).
+
+    ``conditioning="apex"`` instead starts the model afresh at every node, from the apex the
+    search simulated there: the first step of a sequence is the one the model predicts best, because it is
+    the only one whose apex it is told; later steps depend on apexes it can only infer from the path."""
+
+    def __init__(self, net: FootstepDistribution, problem, temperature: float, conditioning: str = "path"):
+        self.net, self.model = net, net.model
+        self.problem = problem
+        self.enc = encode_window(problem.terrain, problem.apex)
+        self.terrain, self.apex, self.s0, self.mask = net.inputs(self.enc)
+        self.temperature = temperature
+        self.conditioning = conditioning
+        self.cache: dict = {}  # node -> (probabilities of the step after it, LSTM state after it or its window)
+
+    def _restart(self, tree, node: int):
+        """The model's first-step distribution from the node's own apex and window."""
+        enc = encode_window(self.problem.terrain, ApexState(*tree.apex[node]))
+        terrain, apex, s0, mask = self.net.inputs(enc)
+        logits, _ = self.model.step(terrain, s0, self.model.initial_state(apex))
+        return softmax(logits[0] / self.temperature, None if mask is None else mask[0]), enc
+
+    def _advance(self, tree, node: int):
+        if node not in self.cache and self.conditioning == "apex":
+            self.cache[node] = self._restart(tree, node)
+        if node not in self.cache:
+            if node == 0:
+                prev, state = self.s0, self.model.initial_state(self.apex)
+            else:
+                prev = np.zeros_like(self.s0)
+                prev[0, int(np.clip(self.net.bin_of(self.enc, tree.foothold[node]), 0, prev.shape[1] - 1))] = 1.0
+                state = self._advance(tree, tree.parent[node])[1]
+            logits, after = self.model.step(self.terrain, prev, state)
+            self.cache[node] = (softmax(logits[0] / self.temperature, None if self.mask is None else self.mask[0]),
+                                after)
+        return self.cache[node]
+
+    def weights(self, tree, node: int, x_l: np.ndarray) -> np.ndarray:
+        """The temperature-scaled probability of each candidate foothold's bin for the step after ``node``
+        (0 outside the window and, with ditch masking, in ditches)."""
+        probs, after = self._advance(tree, node)
+        bins = self.net.bin_of(after if self.conditioning == "apex" else self.enc, x_l)
+        inside = (bins >= 0) & (bins < probs.size)
+        p = np.zeros(x_l.size)
+        p[inside] = probs[bins[inside]]
+        return p
+
+
+class LSTMGuidedPlanner(StepSpacePlanner):
+    """Step-space search whose children are ``branching`` footholds sampled from the LSTM (temperature
+    ``temperature`` widens the distribution for sampling); a search that finds nothing is retried with each
+    ``fallback`` branching (the paper: 3, then 5). Every child still goes through the controller and the fast
+    step map, so the plan is one the controller can hit. ``weights`` is the LSTM checkpoint; ``cost_weights`` the
+    node cost's (Step-space's ``weights``).
+
+    Progressive widening: a node whose sampled children all fail draws the next ``branching`` instead of dying,
+    and a node with candidates left returns to the queue, so the search comes back to it when its children's
+    subtrees die. Often only a band of footholds a few cm wide keeps the hop and the next one alive, narrower
+    than the model's 10 cm cells, so three samples may miss it while the fourth or seventh hits it. Only the
+    drawn candidates are aimed (the controller's cost dominates a Step-space expansion).
+
+    The defaults are the best shipped setting: the sub-cell model (2.5 cm bins, ``SUBCELL_WEIGHTS``), restarted
+    from each node's own apex (``conditioning="apex"``), its samples simulated one at a time in their drawn order
+    (``lazy``). The paper's search, all B samples at once with the model fed the root-to-node path, is the preset
+    ``lstm-guided@paper``."""
+
+    name = "lstm-guided"
+
+    def __init__(self, weights=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
+                 temperature: float = 1.0, mask_ditches: bool = True, seed: int = 0, lazy: bool = True,
+                 conditioning: str = "apex", cost_weights: CostWeights | tuple = CostWeights(),
+                 max_nodes: int = MAX_NODES, **options):
+        # ``weights`` here is the LSTM checkpoint; a node costs a model step on top of Step-space's work
+        super().__init__(weights=cost_weights, max_nodes=max_nodes, **options)
+        for b in (branching, *fallback):
+            if not (isinstance(b, int) and b >= 1):
+                raise ValueError(f"branching factors must be positive integers, got {b!r}")
+        if not temperature > 0:
+            raise ValueError(f"temperature must be positive, got {temperature!r}")
+        self.net = FootstepDistribution(load_model(weights), mask_ditches)
+        self.attempts = (branching, *fallback)
+        self.temperature = float(temperature)
+        self.seed = seed
+        self.lazy = bool(lazy)
+        if conditioning not in ("path", "apex"):
+            raise ValueError(f"conditioning must be 'path' or 'apex', got {conditioning!r}")
+        self.conditioning = conditioning
+
+    def _plan(self, problem):
+        self.controller.check_params(problem.params)
+        return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.attempts])
+
+    def _search(self, problem, branching):
+        sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
+        terrain, params = problem.terrain, problem.params
+        rng = np.random.default_rng(self.seed)
+        draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
+
+        def expand(tree, node) -> Children:
+            """Simulate the node's next ``branching`` admissible candidates in LSTM-weighted random order (a
+            weighted draw without replacement), more until one succeeds; candidates are aimed lazily, in small
+            chunks. A node with candidates left goes back in the queue (Children.more)."""
+            if node not in draws:
+                apex = tree.apex[node]
+                x_l = self.candidates(apex, terrain, params, self.spacings[0], problem.window_end)
+                order = weighted_order(sampler.weights(tree, node, x_l), rng)
+                draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
+            d = draws[node]
+            apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
+            ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
+            tried = []
+            width = 1 if self.lazy else branching
+            while d["pos"] < order.size or d["ready"]:
+                while len(d["ready"]) < width and d["pos"] < order.size:  # aiming is the cost: lazily
+                    chunk = order[d["pos"]:d["pos"] + 4 * width]
+                    d["pos"] += chunk.size
+                    theta[chunk] = self.aim(apex, x_l[chunk], terrain, params)
+                    d["ready"] += [i for i in chunk.tolist() if theta[i] == theta[i]]
+                batch = np.array(d["ready"][:width], dtype=np.int64)
+                d["ready"] = d["ready"][width:]
+                tried += batch.tolist()
+                ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
+                if ok[batch].any():
+                    break
+            idx = np.sort(np.array(tried, dtype=np.int64))
+            children = self.children(problem, x_l[idx], theta[idx], ok[idx], apexes[idx], idx.size)
+            children.more = bool(d["pos"] < order.size or d["ready"])
+            return children
+
+        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+
+
+def weighted_order(p: np.ndarray, rng) -> np.ndarray:
+    """The indices with p > 0 in the order of a weighted draw without replacement (Efraimidis and Spirakis:
+    sort by u^(1/p), u uniform)."""
+    idx = np.flatnonzero(p > 0)
+    keys = np.log(rng.uniform(size=idx.size)) / p[idx]
+    return idx[np.argsort(-keys)]

@@ -1,0 +1,68 @@
+"""The Angle-space planner: best-first search whose children are sampled leg angles (paper, Algorithm 1)."""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from drakeslip import step_batch
+
+from planners.base import Plan, Planner, Problem
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, Children, CostWeights, SearchResult,
+                                  best_first, clear_of_edges, isolation, run_attempts, warm_up)
+
+class AngleSpacePlanner(Planner):
+    """Each expansion draws ``branching`` leg angles in the friction cone, one uniformly in each of
+    ``branching`` equal strata (seeded), and simulates them all with one batched fast step-map call. If a
+    search finds no sequence it is retried with each of ``fallback`` branching factors (the paper: 20, then
+    30). Returns up to ``n_sequences`` sequences (d). Children slower than ``min_speed`` at their next apex or
+    landing within ``edge_margin`` of an edge are dropped (see MIN_SPEED, EDGE_MARGIN)."""
+
+    name = "angle"
+
+    def __init__(self, branching: int = 20, fallback: tuple = (30,), n_sequences: int = 1,
+                 weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
+                 edge_margin: float = EDGE_MARGIN, seed: int = 0, **budget):
+        super().__init__(**budget)
+        for b in (branching, *fallback):
+            if not (isinstance(b, int) and b >= 1):
+                raise ValueError(f"branching factors must be positive integers, got {b!r}")
+        if not (isinstance(n_sequences, int) and n_sequences >= 1):
+            raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
+        self.branchings = (branching, *fallback)
+        self.n_sequences = n_sequences
+        self.weights = weights if isinstance(weights, CostWeights) else CostWeights(*weights)
+        warm_up()
+        self.min_speed = float(min_speed)
+        self.edge_margin = float(edge_margin)
+        self.seed = seed
+
+    def search(self, apex, terrain, goal_x, params=None, branching: int | None = None) -> SearchResult:
+        """One search with one branching factor; the tree in the result holds every node it created."""
+        problem = self.problem(apex, terrain, goal_x, params, time.perf_counter())
+        return self._search(problem, branching or self.branchings[0])
+
+    def _search(self, problem: Problem, branching: int) -> SearchResult:
+        rng = np.random.default_rng(self.seed)
+        limit = FRICTION_MARGIN * math.atan(problem.params.friction)
+        edges = np.linspace(-limit, limit, branching + 1)
+        params, terrain, window_end = problem.params, problem.terrain, problem.window_end
+
+        def expand(tree, node) -> Children:
+            angles = edges[:-1] + rng.uniform(0.0, 1.0, branching) * np.diff(edges)
+            res = step_batch(tree.apex[node], angles, terrain, params)
+            ok = res.ok & (res.next_xdot >= self.min_speed)
+            ok[ok] &= clear_of_edges(terrain, res.touchdown_x[ok], self.edge_margin)
+            inside = res.touchdown_x < window_end  # hops past the window end the sequence, they are not in it
+            d = isolation(res.touchdown_x, ok)[inside[ok]]
+            beyond = bool(np.any(ok & ~inside))
+            ok &= inside
+            apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]
+            return Children(angles[ok], res.touchdown_x[ok], apexes, d, branching, beyond)
+
+        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+
+    def _plan(self, problem: Problem) -> Plan:
+        return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.branchings])
+

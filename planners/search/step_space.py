@@ -1,0 +1,161 @@
+"""The Step-space planner: the Angle-space search with children from a grid of desired footholds passed
+through the low-level controller (paper, section V-C), so every planned step is one the controller hits."""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from drakeslip import StepLengthController, step, step_batch
+from drakeslip.stepmap import BACKENDS
+
+from planners.base import Plan, Planner, Problem
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, Children, CostWeights, SearchResult,
+                                  best_first, clear_of_edges, isolation, run_attempts, warm_up)
+
+
+class StepSpacePlanner(Planner):
+    """Children: desired footholds x_L on a grid of ``spacing`` (default a quarter of a terrain cell, offset so
+    no x_L sits on a cell edge) between the touchdowns of the extreme friction-cone angles, +-0.3 m for the
+    terrain. The paper used 0.5 m over a 5 m horizon; a 0.5 m leg reaches about 1 m per hop, and at low speed
+    the footholds that keep the next hop alive span only 10-15 cm, so a fine grid is what finds them.
+    Ditch cells, x_L within ``edge_margin`` of an edge, and x_L the controller can only reach outside the
+    friction cone are dropped before simulation; the rest go through the controller and one batched fast
+    step-map call, and a child is kept when the hop succeeds, lands within ``tolerance`` of x_L and keeps
+    ``min_speed``. The plan's footholds are the x_L. If a search finds no sequence it is retried on each
+    ``fallback_spacing`` grid (like the paper's fallback branching): a fast, high hop keeps its next hop
+    alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds.
+
+    ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
+    (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
+    calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
+
+    name = "step"
+
+    def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
+                 tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
+                 weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
+                 edge_margin: float = EDGE_MARGIN, step_map: str = "fast", **budget):
+        super().__init__(**budget)
+        if step_map not in BACKENDS:
+            raise ValueError(f"unknown step_map {step_map!r}; choose one of {BACKENDS}")
+        self.step_map = step_map
+        self.controller = controller or StepLengthController.load_default()
+        self.spacings = (spacing, *fallback_spacing)
+        for s in self.spacings:
+            if s is not None and not (math.isfinite(s) and s > 0):
+                raise ValueError(f"spacing must be a positive distance, got {s!r}")
+        if not (isinstance(n_sequences, int) and n_sequences >= 1):
+            raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
+        self.tolerance = float(tolerance)
+        self.n_sequences = n_sequences
+        self.weights = weights if isinstance(weights, CostWeights) else CostWeights(*weights)
+        self.min_speed = float(min_speed)
+        self.edge_margin = float(edge_margin)
+        warm_up()
+
+    def candidates(self, apex, terrain, params, spacing: float | None, until: float | None = None) -> np.ndarray:
+        """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing, up to ``until``
+        if given. The planner itself asks for the full reach: hops that would land past the perception window
+        are simulated too, to tell a sequence that has gone as far as the robot can see (see best_first)."""
+        x, z, v = apex
+        lo, hi = touchdown_range(x, z, v, terrain, params)
+        lo, hi = lo - 0.3, min(hi + 0.3, math.inf if until is None else until)
+        spacing = spacing or terrain.cell / 4
+        first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
+        return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
+
+    def aim(self, apex, x_l: np.ndarray, terrain, params) -> np.ndarray:
+        """The controller's leg angle to each desired foothold, NaN where the foothold is not admissible: a
+        ditch cell, within ``edge_margin`` of an edge, or reached only outside the friction cone. Telling these
+        apart needs no step-map call."""
+        keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, self.edge_margin)
+        theta = np.full(x_l.size, np.nan)
+        if keep.any():
+            theta[keep] = self.controller.leg_angles(apex, x_l[keep], terrain)
+        theta[~(np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction))] = np.nan
+        return theta
+
+    def search(self, apex, terrain, goal_x, params=None) -> SearchResult:
+        """One search on each grid in turn until one finds a sequence; the result's tree holds every node the
+        last search created."""
+        problem = self.problem(apex, terrain, goal_x, params, time.perf_counter())
+        for spacing in self.spacings:
+            result = self._search(problem, spacing)
+            if result.tree.goals or result.stop == "time":
+                break
+        return result
+
+    def _search(self, problem: Problem, spacing) -> SearchResult:
+        terrain, params = problem.terrain, problem.params
+
+        def expand(tree, node) -> Children:
+            apex = tree.apex[node]
+            x_l = self.candidates(apex, terrain, params, spacing)
+            theta = self.aim(apex, x_l, terrain, params)
+            ok, apexes = self.simulate(problem, apex, x_l, theta)
+            return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
+
+        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+
+    def simulate(self, problem: Problem, apex, x_l: np.ndarray, theta: np.ndarray):
+        """One batched fast step-map call (or one Drake simulation each) for the admissible (finite ``theta``)
+        desired footholds; returns ``ok`` (the hop succeeds, lands within ``tolerance`` of x_L and keeps
+        ``min_speed``) and the next apexes."""
+        keep = ~np.isnan(theta)
+        ok = np.zeros(x_l.size, dtype=bool)
+        apexes = np.zeros((x_l.size, 3))
+        if not keep.any():
+            return ok, apexes
+        if self.step_map == "fast":
+            res = step_batch(apex, theta[keep], problem.terrain, problem.params)
+            landed, touchdown_x = res.ok, res.touchdown_x
+            apexes[keep] = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)
+        else:
+            hops = [step(apex, a, problem.terrain, problem.params, backend="drake") for a in theta[keep]]
+            landed = np.array([h.ok for h in hops])
+            touchdown_x = np.array([h.touchdown_x for h in hops])
+            apexes[keep] = [h.next_apex if h.ok else h.end_state[:3] for h in hops]
+        ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < self.tolerance) & (apexes[keep, 2] >= self.min_speed)
+        return ok, apexes
+
+    @staticmethod
+    def children(problem: Problem, x_l, theta, ok, apexes, ode_calls: int) -> Children:
+        """The successful candidates (sorted by x_l) as the node's children; a hop past the window ends the
+        sequence rather than joining it."""
+        inside = x_l < problem.window_end
+        d = isolation(x_l, ok)[inside[ok]]
+        beyond = bool(np.any(ok & ~inside))
+        ok = ok & inside
+        return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
+
+    def _plan(self, problem: Problem) -> Plan:
+        self.controller.check_params(problem.params)
+        return run_attempts(self, problem, [(f"grid {s or problem.terrain.cell / 4:g} m",
+                                             lambda s=s: self._search(problem, s)) for s in self.spacings])
+
+
+REACH_ANGLES = np.linspace(-1.0, 1.0, 41)  # fractions of the friction-cone limit at which the reach is evaluated
+
+
+def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:
+    """Bounds on where a flight from apex (x, z, v) can touch down on solid ground with a leg angle inside the
+    friction cone. The foot, L0 sin(a) ahead of the body, meets ground of height h when the body has fallen to
+    h + L0 cos(a): touchdown at x + L0 sin(a) + v sqrt(2 (z - h - L0 cos(a)) / g). That is not monotone in
+    a (a leg near vertical lands soonest) and it depends on the height of the ground it lands on, not the one
+    under the apex (over a ditch that would be the ditch floor), so the bounds take every angle of a grid and
+    the highest and lowest solid cell the foot could reach."""
+    L0, g = params.leg_length, params.gravity
+    angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
+    solid = terrain.heights[terrain.heights > terrain.ditch_height]
+    if solid.size == 0:
+        solid = terrain.heights
+    far = x + L0 + v * math.sqrt(2 * max(z - float(solid.min()), 0.0) / g)
+    cells = terrain.heights[terrain.index(x - L0):terrain.index(far) + 1]
+    cells = cells[cells > terrain.ditch_height]
+    if cells.size == 0:
+        cells = np.array([terrain.height_at(x)])
+    h = np.array([cells.max(), cells.min()])[:, None]  # the highest ground is met soonest, the lowest latest
+    reach = x + L0 * np.sin(angles) + v * np.sqrt(2 * np.maximum(z - h - L0 * np.cos(angles), 0.0) / g)
+    return float(reach[0].min()), float(reach[1].max())

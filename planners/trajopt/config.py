@@ -1,0 +1,106 @@
+"""The optimizer's settings: the seeds it knows, the transcription, constraint margins, cost weights and solver
+options, and the error a seed that cannot be optimized raises.
+
+Only numpy and the standard library are imported here, so a script's ``--help`` that shows these defaults starts
+no pydrake, torch or numba.
+
+Cost (a documented trade; weights in ``CostWeights``):
+
+    J =  edge     * sum_i sum_{finite edges e of segment i} (EDGE_SCALE / (f_i - e))^2     keep off edges
+       + angle    * sum_i ((theta_{i+1} - theta_i) / ANGLE_SCALE)^2                       smooth leg commands
+       + speed    * sum_i ((v_{i+1} - v_i) / SPEED_SCALE)^2   (v_0: the start's speed)    steady apex speed
+       - progress * (x of the last apex - x of the start) / (target - x of the start)     go far
+
+The edge term is (5 cm / distance)^2: large within a few cm of an edge, negligible a few decimetres away, so it
+pushes footholds off edges without pulling them to segment centres. Angle and speed changes are measured in
+units of 0.1 rad and 0.5 m/s; smooth commands and steady speeds are also what keeps an open-loop plan robust.
+Progress is the only term that rewards distance, normalized so that reaching the target is worth 1.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+SEEDS = ("cold", "heuristic", "step", "lstm", "lstm-guided")
+MULTI_START = ("cold", "lstm-guided")  # seeds with more than one start: other strides, other samples
+COLD_STRIDES = (0, 1, -1, 2, -2)       # the cold seed's k-th start: this many hops more than the nominal gait
+COLLOCATIONS = ("chebyshev", "hermite-simpson")
+EDGE_SCALE = 0.05    # [m]   distance to an edge at which the edge cost of a foothold is 1
+ANGLE_SCALE = 0.1    # [rad] change in leg angle between hops that costs 1
+SPEED_SCALE = 0.5    # [m/s] change in apex speed between hops that costs 1
+COLD_OVERSHOOT = 0.05  # [m] the cold seed's last foothold lands this far past the target
+SEED_TOLERANCE = 0.02  # [m] a seed's hop counts as executed when it lands this close to its foothold
+
+
+class TrajoptError(ValueError):
+    """A seed or segment assignment that cannot be optimized (e.g. a foothold on a ditch)."""
+
+
+@dataclass(frozen=True)
+class CostWeights:
+    """The weights of the cost's four terms (see the module docstring)."""
+
+    edge: float = 1.0
+    angle: float = 1.0
+    speed: float = 1.0
+    progress: float = 1.0
+
+
+@dataclass(frozen=True)
+class TrajoptConfig:
+    """Transcription, constraint margins, cost and solver settings (the constraints are described in
+    ``program``, the cost above)."""
+
+    collocation: str = "chebyshev"   # or "hermite-simpson"
+    knots: int = 20                  # stance knots minus one (Chebyshev degree, or Hermite-Simpson segments)
+    max_hops: int = 24               # a seed's footholds beyond this many are dropped (slow starts take ~20
+                                     # hops to cross the 7 m horizon; 24 hops solve in ~10-30 s)
+    edge_margin: float = 0.03        # [m] footholds stay this far inside their segment
+    friction_fraction: float = 0.95  # stance knots stay inside the cone of this fraction of mu
+    stroke_margin: float = 0.003     # [m] knots stay this much above min_leg_length (covers the dip between
+                                     # knots at mid-stance, ~1.5 mm for 20 Chebyshev knots)
+    clearance: float = 0.01          # [m] body and extended foot above the terrain in flight (slow, low hops
+                                     # of a Step-space seed lift the foot only 1-2 cm at apex)
+    flight_samples: int = 6          # intervals per ascent and per descent checked for clearance
+    target_margin: float = 0.05      # [m] the last apex is planned this far past the target
+    min_speed: float = 0.3           # [m/s] apex speed bounds
+    max_speed: float = 6.0
+    min_stance_speed: float = 0.05   # [m/s] xdot at every stance knot (a STALL below 0)
+    weights: CostWeights = field(default_factory=CostWeights)
+    solver: str = "snopt"            # "snopt" or "ipopt"; snopt falls back to ipopt when unavailable
+    lstm_weights: str | None = None  # checkpoint for the lstm and lstm-guided seeds, over their presets' (a
+                                     # seed's own options can name another; default: each label's own)
+    solver_options: tuple = ()       # extra (name, value) pairs for the solver
+    retry: bool = True               # no convergence from the re-anchored guess: try the chained one too
+    starts: int = 1                  # starts per query for MULTI_START seeds, until one is verified
+    polish_violation: float = 0.05   # an unconverged point this close to feasible (max violation) is solved
+                                     # once more from itself (0 turns the restart off)
+    major_iterations: int = 400
+    optimality_tolerance: float = 1e-5
+    feasibility_tolerance: float = 1e-7
+
+    def node_times(self) -> np.ndarray:
+        """Stance knot times as fractions of the stance duration (``collocation.node_times``)."""
+        from planners.trajopt.collocation import node_times
+
+        return node_times(self.collocation, self.knots)
+
+    def __post_init__(self):
+        if not (isinstance(self.knots, int) and self.knots >= 2):
+            raise ValueError(f"knots must be an integer >= 2, got {self.knots!r}")
+        if not (isinstance(self.starts, int) and 1 <= self.starts <= len(COLD_STRIDES)):
+            raise ValueError(f"starts must be an integer in 1..{len(COLD_STRIDES)}, got {self.starts!r}")
+        if not (isinstance(self.max_hops, int) and self.max_hops >= 1):
+            raise ValueError(f"max_hops must be a positive integer, got {self.max_hops!r}")
+        if not (isinstance(self.flight_samples, int) and self.flight_samples >= 1):
+            raise ValueError(f"flight_samples must be a positive integer, got {self.flight_samples!r}")
+        if self.collocation not in COLLOCATIONS:
+            raise ValueError(f"collocation must be one of {COLLOCATIONS}, got {self.collocation!r}")
+        if self.solver not in ("snopt", "ipopt"):
+            raise ValueError(f"solver must be 'snopt' or 'ipopt', got {self.solver!r}")
+        if not 0 < self.friction_fraction <= 1:
+            raise ValueError(f"friction_fraction must lie in (0, 1], got {self.friction_fraction!r}")
+        for name in ("edge_margin", "stroke_margin", "clearance", "target_margin", "polish_violation"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be non-negative, got {getattr(self, name)!r}")

@@ -1,0 +1,110 @@
+"""The benchmark harness: planners evaluated on a suite in the receding-horizon loop (paper, section VII).
+
+Each (planner label, case) is one task of the job runner (``drakeslip.jobs``): run in this process, in local
+worker processes or on a Ray cluster, saved to a JSON-lines store as it finishes, and reused by a later run of
+the same setup, so a killed evaluation resumes where it stopped. A task's key is a fingerprint of everything its
+result depends on: the case, the planner and its options after presets, the closed-loop settings, and the
+digests of the controller and every weights file the planner reads.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from pathlib import Path
+
+from drakeslip import SlipParams
+from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
+from drakeslip.jobs.executors import prepare
+from drakeslip.jobs.runner import JsonLinesStore, run
+
+from planners.closed_loop import ClosedLoopConfig, run_case
+from planners.formats.suite import Suite, suite_from_dict
+from planners.registry import files_read, make_planners, options_for
+from verification.report import summarize
+
+_WORKER: dict = {}
+
+
+def controller_weights(path=None) -> str:
+    """The controller weights file a run uses: ``path``, or the committed one."""
+    return str(path or DEFAULT_WEIGHTS)
+
+
+def digest(path) -> str:
+    """The first 16 hex digits of the SHA-256 of a file (its path when it does not exist)."""
+    path = Path(path)
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else str(path)
+
+
+def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path) -> str:
+    """Identifies a (suite, planner, options, closed loop, weights) setup, so cached cases are reused only for
+    the same setup: retraining the controller or any weights file the planner reads invalidates them."""
+    files = {name: digest(path) for name, path in files_read(label, options).items()}
+    blob = json.dumps([suite.goal_x, suite.friction, label, options, config.__dict__,
+                       digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def case_key(setup: str, case) -> str:
+    """The store key of one case under one setup: the setup's fingerprint and the case's own content."""
+    blob = json.dumps([setup, case.id, case.terrain.to_dict(), list(case.apex)], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:20]
+
+
+def worker_setup(specs: dict, controller_path=None, refine: bool = True) -> tuple:
+    """The setup every process of a run does once (``drakeslip.jobs.executors.prepare``): the run's controller and
+    planners, ``specs`` mapping labels to options (presets applied)."""
+    return prepare_worker, ({label: options_for(label, options) for label, options in specs.items()},
+                            controller_path, refine)
+
+
+def prepare_worker(specs: dict, controller_path, refine: bool) -> None:
+    """Build the run's controller and planners in this process (a worker's setup)."""
+    controller = StepLengthController.load(controller_weights(controller_path), refine=refine)
+    _WORKER["controller"] = controller
+    _WORKER["planners"] = make_planners(specs, controller)
+
+
+def run_task(label: str, case: dict, goal_x: float, friction: float, config: ClosedLoopConfig) -> dict:
+    """One case (a suite's case entry) for one planner label, with the planners ``prepare_worker`` built."""
+    suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "task", "goal_x": goal_x, "friction": friction,
+                             "cases": [case]})
+    return run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x,
+                    SlipParams(friction=friction), config)
+
+
+def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
+    """Every ``every``-th case of the suite, the first ``n_cases`` of those (all if None)."""
+    if isinstance(every, bool) or not isinstance(every, int) or every < 1:
+        raise ValueError(f"every must be a positive integer, got {every!r}")
+    if n_cases is not None and (isinstance(n_cases, bool) or not isinstance(n_cases, int) or n_cases < 1):
+        raise ValueError(f"the number of cases must be a positive integer, got {n_cases!r}")
+    return list(suite.cases[::every])[:n_cases]
+
+
+def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=None, cache_path=None,
+             controller_path=None, config: ClosedLoopConfig = ClosedLoopConfig(), progress: bool = True,
+             every: int = 1) -> dict:
+    """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``.
+    Finished cases go to ``cache_path`` (JSON lines) as they complete and are reused when the run is started
+    again. ``executor``: where the cases run (``drakeslip.jobs.executors``; default this process)."""
+    from tqdm import tqdm
+
+    cases = select(suite, n_cases, every)
+    setup = worker_setup(specs, controller_path, config.refine)
+    specs = setup[1][0]
+    prepare(setup)  # in this process first: a bad option or weights file fails before any case runs
+    setups = {label: fingerprint(suite, label, options, config, controller_path) for label, options in specs.items()}
+    owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
+    tasks = [(key, (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}, suite.goal_x,
+                    suite.friction, config)) for key, (label, c) in owner.items()]
+    store = JsonLinesStore(cache_path) if cache_path else None
+    done = {label: {} for label in specs}
+    with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
+        for key, result in run(run_task, tasks, store, executor, setup):
+            label, case = owner[key]
+            done[label][case.id] = result
+            bar.update(1)
+            bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
+    return {"suite": suite.name, "config": dict(config.__dict__), "options": specs,
+            "planners": {label: summarize([done[label][c.id] for c in cases]) for label in specs}}

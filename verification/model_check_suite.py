@@ -1,0 +1,117 @@
+"""The model-checking oracle on a suite: each case's verdict (``model_check``), cached and run by the job runner,
+the suite's ceiling, and the cross-check against planners' results."""
+from __future__ import annotations
+
+import hashlib
+import json
+import random
+from dataclasses import asdict
+
+import numpy as np
+
+from drakeslip import SlipParams
+from drakeslip.jobs.runner import JsonLinesStore, run
+
+from planners.base import Budget
+from planners.formats.suite import Case, Suite
+from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, MIN_SPEED, NOT_TRAVERSABLE,
+                                      TRAVERSABLE, UNKNOWN, model_check)
+
+CACHE_VERSION = 1      # bump when a change invalidates cached verdicts
+
+
+def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = None, ids=None) -> list[Case]:
+    """The cases named by ``ids``; else ``n_cases`` of them (the first ones, or a random sample if ``seed`` is
+    given); else all."""
+    if ids:
+        by_id = {c.id: c for c in suite.cases}
+        unknown = [i for i in ids if i not in by_id]
+        if unknown:
+            raise ValueError(f"unknown case id(s) {unknown} in suite {suite.name!r} "
+                             f"(its ids look like {suite.cases[0].id!r})")
+        return [by_id[i] for i in ids]
+    if n_cases is not None and (isinstance(n_cases, bool) or not isinstance(n_cases, int) or n_cases < 1):
+        raise ValueError(f"the number of cases must be a positive integer, got {n_cases!r}")
+    n = min(n_cases or len(suite.cases), len(suite.cases))
+    if seed is None:
+        return list(suite.cases[:n])
+    picked = sorted(random.Random(seed).sample(range(len(suite.cases)), n))
+    return [suite.cases[i] for i in picked]
+
+
+def _config(levels, min_speed, drake_check, max_witnesses) -> dict:
+    return {"levels": [asdict(r) for r in levels], "min_speed": min_speed, "drake_check": drake_check,
+            "max_witnesses": max_witnesses, "version": CACHE_VERSION}
+
+
+def case_key(case: Case, goal_x: float, friction: float, config: dict) -> str:
+    """Identifies a case and the oracle's settings (not its budget), so a cached verdict is reused only for
+    the same question."""
+    blob = json.dumps([case.terrain.to_dict(), list(case.apex), goal_x, friction, config], sort_keys=True)
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def summarize(records: list) -> dict:
+    n = len(records)
+    count = {v: sum(r["verdict"] == v for r in records) for v in (TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN)}
+    return {"cases": n, "traversable": count[TRAVERSABLE], "not_traversable": count[NOT_TRAVERSABLE],
+            "unknown": count[UNKNOWN], "decided_rate": (n - count[UNKNOWN]) / n if n else 0.0,
+            # the suite's best possible success rate; with unknowns it lies between ceiling and ceiling_upper
+            "ceiling": count[TRAVERSABLE] / n if n else 0.0,
+            "ceiling_upper": (count[TRAVERSABLE] + count[UNKNOWN]) / n if n else 0.0,
+            "time_s_median": float(np.median([r["time_s"] for r in records])) if n else 0.0}
+
+
+def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
+                levels=LEVELS, min_speed: float = MIN_SPEED, drake_check: bool = True,
+                max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None) -> dict:
+    """Run the oracle on ``cases`` of ``suite`` on ``executor`` (``drakeslip.jobs.executors``; default this
+    process). Each finished case is appended to ``cache_path`` (JSON lines) and reused by a later run with the
+    same settings; a cached ``unknown`` is rerun when the budget grew. The time budget is wall-clock per case, so
+    an executor should run no more cases at a time than it has cores."""
+    from tqdm import tqdm
+
+    config = _config(levels, min_speed, drake_check, max_witnesses)
+    params = SlipParams(friction=suite.friction)
+    keys = {c.id: case_key(c, suite.goal_x, suite.friction, config) for c in cases}
+    first = {}
+    for c in cases:  # identical cases ask the same question: checked once
+        first.setdefault(keys[c.id], c)
+    tasks = [(key, (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check, max_witnesses))
+             for key, c in first.items()]
+
+    def reuse(held):  # a cached "unknown" is rerun when the budget grew
+        return held["verdict"] != UNKNOWN or (held["budget"]["max_nodes"] >= budget.max_nodes
+                                              and held["budget"]["max_time_s"] >= budget.max_time_s)
+
+    records = {}
+    store = JsonLinesStore(cache_path) if cache_path else None
+    with tqdm(total=len(tasks), desc=f"model check {suite.name}", unit="case", disable=not progress) as bar:
+        for key, result in run(_checked, tasks, store, executor, reuse=reuse):
+            records[key] = result
+            bar.update(1)
+            s = summarize(list(records.values()))
+            bar.set_postfix(T=s["traversable"], N=s["not_traversable"], U=s["unknown"])
+    ordered = [{**records[keys[c.id]], "id": c.id} for c in cases]
+    return {"suite": suite.name, "goal_x": suite.goal_x, "friction": suite.friction, "config": config,
+            "cases": ordered, "summary": summarize(ordered)}
+
+
+def _checked(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses) -> dict:
+    """One case's verdict with the budget it had (a task of ``check_suite``)."""
+    return {**model_check(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses),
+            "budget": asdict(budget)}
+
+
+def cross_check(oracle: dict, evaluation: dict) -> dict:
+    """Soundness against planners: for each planner of an ``examples/evaluate.py`` results dict, the cases it
+    crossed that the oracle calls not traversable (``contradicted``: must be empty) and the cases it failed
+    that the oracle calls traversable (``missed``). Only cases both files hold are compared."""
+    verdicts = {c["id"]: c["verdict"] for c in oracle["cases"]}
+    out = {}
+    for name, block in evaluation["planners"].items():
+        cases = [c for c in block["cases"] if c["id"] in verdicts]
+        out[name] = {"compared": len(cases), "crossed": sum(c["success"] for c in cases),
+                     "contradicted": [c["id"] for c in cases if c["success"] and verdicts[c["id"]] == NOT_TRAVERSABLE],
+                     "missed": [c["id"] for c in cases if not c["success"] and verdicts[c["id"]] == TRAVERSABLE]}
+    return out
