@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip.jobs.files import atomic_write
+from drakeslip.jobs.files import atomic_write, check_digest, first_line, record_digest
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
@@ -151,6 +151,7 @@ class StepLengthController:
                 "params": asdict(self.params)}
         with atomic_write(path) as f:
             torch.save(blob, f)
+        record_digest(path)
 
     @classmethod
     def load(cls, path, refine: bool = True) -> "StepLengthController":
@@ -159,12 +160,14 @@ class StepLengthController:
         import torch
 
         path = Path(path)
+        check_digest(path)
         try:
             blob = torch.load(path, map_location="cpu", weights_only=True)
         except FileNotFoundError:
             raise
         except Exception as exc:  # torch raises many types for a damaged file
-            raise ValueError(f"controller weights file {path} is corrupt or not a torch file: {exc}") from exc
+            raise ValueError(f"controller weights file {path} is corrupt or not a torch file: "
+                             f"{first_line(exc)}") from exc
         if not isinstance(blob, dict) or blob.get("format") != WEIGHTS_FORMAT:
             raise ValueError(f"controller weights file {path} is not in format {WEIGHTS_FORMAT!r}")
         try:
@@ -175,7 +178,8 @@ class StepLengthController:
                 raise ValueError("feature statistics of the wrong shape")
             return cls({k: v.numpy() for k, v in blob["state_dict"].items()}, config, mean, std, params, refine)
         except (KeyError, TypeError, AttributeError, RuntimeError, ValueError) as exc:
-            raise ValueError(f"controller weights file {path} does not match the controller model: {exc}") from exc
+            raise ValueError(f"controller weights file {path} does not match the controller model: "
+                             f"{first_line(exc)}") from exc
 
     @classmethod
     def load_default(cls, refine: bool = True) -> "StepLengthController":

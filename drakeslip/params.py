@@ -2,12 +2,32 @@
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass, field
+
+import numpy as np
 
 # Default spring stroke: the leg bottoms out after compressing by 40 % of its rest length, the stroke of a
 # typical telescoping hopper leg. For the paper's 7 kg / 0.5 m / 3200 N/m hopper that is 64 J of spring
 # energy, so bottoming out is reached only by large drops (e.g. a high apex over a step down).
 MIN_LEG_FRACTION = 0.6
+
+
+def check_number(value, name: str, positive: bool = False) -> float:
+    """``value`` as a float if it is a real number (Python or numpy, not a boolean), finite, and positive if asked;
+    else ValueError naming ``name`` and the value."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value) \
+            or (positive and value <= 0):
+        kind = "a positive finite number" if positive else "a finite number"
+        raise ValueError(f"{name} must be {kind}, got {value!r}")
+    return float(value)
+
+
+def check_count(value, name: str, low: int = 1) -> int:
+    """``value`` as an int if it is an integer (Python or numpy, not a boolean) of at least ``low``; else ValueError."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < low:
+        raise ValueError(f"{name} must be an integer of at least {low}, got {value!r}")
+    return int(value)
 
 
 @dataclass(frozen=True)
@@ -29,15 +49,14 @@ class SlipParams:
 
     def __post_init__(self):
         for name in ("mass", "leg_length", "stiffness", "gravity", "friction"):
-            value = getattr(self, name)
-            if not isinstance(value, (int, float)) or not math.isfinite(value) or value <= 0:
-                raise ValueError(f"SlipParams.{name} must be a positive finite number, got {value!r}")
+            object.__setattr__(self, name, check_number(getattr(self, name), f"SlipParams.{name}", positive=True))
         if self.min_leg_length is None:
             object.__setattr__(self, "min_leg_length", MIN_LEG_FRACTION * self.leg_length)
-        lmin = self.min_leg_length
-        if not isinstance(lmin, (int, float)) or not math.isfinite(lmin) or not 0 < lmin < self.leg_length:
+        lmin = check_number(self.min_leg_length, "SlipParams.min_leg_length", positive=True)
+        if not lmin < self.leg_length:
             raise ValueError(
-                f"SlipParams.min_leg_length must lie in (0, leg_length={self.leg_length}), got {lmin!r}")
+                f"SlipParams.min_leg_length must lie in (0, leg_length={self.leg_length}), got {self.min_leg_length!r}")
+        object.__setattr__(self, "min_leg_length", lmin)
 
     @property
     def natural_frequency(self) -> float:
@@ -54,7 +73,5 @@ class SlipParams:
 
     def as_array(self):
         """(mass, leg_length, stiffness, gravity, friction, min_leg_length) for the compiled kernels."""
-        import numpy as np
-
         return np.array([self.mass, self.leg_length, self.stiffness, self.gravity, self.friction,
                          self.min_leg_length], dtype=np.float64)

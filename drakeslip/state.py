@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from drakeslip.params import SlipParams
+from drakeslip.params import SlipParams, check_number
 from drakeslip.terrain import Terrain
 
 
@@ -28,10 +28,8 @@ class ApexState(NamedTuple):
     xdot: float
 
     def validate(self, name: str = "apex") -> "ApexState":
-        for field_name, value in zip(self._fields, self):
-            if not math.isfinite(value):
-                raise ValueError(f"{name}.{field_name} must be finite, got {value!r}")
-        return self
+        """This apex with every component a finite float; ValueError naming a bad one (NaN, a boolean, text)."""
+        return ApexState(*(check_number(value, f"{name}.{field_name}") for field_name, value in zip(self._fields, self)))
 
 
 class FailureMode(enum.IntEnum):
@@ -68,6 +66,15 @@ class StepResult:
     work: int
 
 
+def as_apex(apex, name: str = "apex") -> ApexState:
+    """``apex`` (any sequence of three numbers) as a checked ApexState of floats."""
+    try:
+        x, z, xdot = apex
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be (x, z, xdot), got {apex!r}") from None
+    return ApexState(x, z, xdot).validate(name)
+
+
 def check_apex(apex, terrain: Terrain, params: SlipParams) -> ApexState:
     """``apex`` as an ApexState of floats, after checking the inputs of a hop: a Terrain, SlipParams, a finite
     apex above the terrain. Raises TypeError or ValueError naming the bad value."""
@@ -75,7 +82,7 @@ def check_apex(apex, terrain: Terrain, params: SlipParams) -> ApexState:
         raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
     if not isinstance(params, SlipParams):
         raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
-    apex = ApexState(*map(float, apex)).validate()
+    apex = as_apex(apex)
     ground = terrain.height_at(apex.x)
     if apex.z <= ground:
         raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")

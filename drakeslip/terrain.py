@@ -5,6 +5,8 @@ import math
 
 import numpy as np
 
+from drakeslip.params import check_number
+
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
 WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
 WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells)
@@ -24,15 +26,11 @@ class Terrain:
         bad = np.flatnonzero(~np.isfinite(h))
         if bad.size:
             raise ValueError(f"Terrain heights must be finite: heights[{bad[0]}] = {h[bad[0]]}")
-        if not (isinstance(cell, (int, float)) and math.isfinite(cell) and cell > 0):
-            raise ValueError(f"Terrain cell size must be positive and finite, got {cell!r}")
-        if not (isinstance(x0, (int, float)) and math.isfinite(x0)):
-            raise ValueError(f"Terrain x0 must be finite, got {x0!r}")
+        self.cell = check_number(cell, "Terrain cell size", positive=True)
+        self.x0 = check_number(x0, "Terrain x0")
+        self.ditch_height = check_number(ditch_height, "Terrain ditch_height")
         self.heights = h
         self.heights.setflags(write=False)
-        self.cell = float(cell)
-        self.x0 = float(x0)
-        self.ditch_height = float(ditch_height)
 
     @classmethod
     def flat(cls, height: float = 0.0, cell: float = 0.1, x0: float = -3.0, length: float = 30.0) -> "Terrain":
@@ -53,6 +51,17 @@ class Terrain:
 
     def is_ditch_at(self, x) -> bool:
         return bool(self.height_at(x) <= self.ditch_height)
+
+    def far_rim(self, x: float):
+        """Where a ditch under ``x`` ends: (x, height) of the first solid cell ahead, or None when ``x`` is not
+        over a ditch or no solid cell follows."""
+        if not self.is_ditch_at(x):
+            return None
+        ahead = np.flatnonzero(self.heights[self.index(x):] > self.ditch_height)
+        if ahead.size == 0:
+            return None
+        i = int(self.index(x)) + int(ahead[0])
+        return self.x0 + i * self.cell, float(self.heights[i])
 
     def window(self, x_body: float, ahead: float = WINDOW_AHEAD, behind: float = WINDOW_BEHIND):
         """The perception window around the body: ``(heights, x_start)`` with ``(ahead+behind)/cell`` cells

@@ -1,9 +1,15 @@
-"""Check a saved plan on the Drake hybrid simulator: print its certificate (margins) or its counterexample.
+"""Check a saved plan on the Drake hybrid simulator: certify the plan as written, or print a counterexample.
 
     python3 examples/verify_plan.py --plan out/plan.json --mode auto --out out/check.json
 
-Exit status: 0 certified, 1 counterexample (the first failure and the trace up to it), 2 a usage error or a
-malformed plan file.
+CERTIFIED means the Drake run completed every hop of the plan with no failure, touched down within --tolerance of
+every planned foothold, reached every predicted apex within --tolerance (x and z in m, xdot in m/s), and reached
+the plan's target; its margins say how far it stayed from each failure. Otherwise the counterexample names the
+first place the run left the plan (a failure, a missed foothold, a missed apex, the target not reached), with
+the hop, planned against actual, the state and hybrid state there, and the trace up to it.
+
+Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree: see
+planners/formats/plan.py).
 """
 from __future__ import annotations
 
@@ -12,6 +18,7 @@ import sys
 from drakeslip.jobs import cli
 
 MODES = ("angles", "footholds", "auto")
+TOLERANCE = 0.01  # verification.plan_check.TOLERANCE, here so that --help imports nothing heavy
 
 
 def main(argv=None) -> int:
@@ -20,6 +27,8 @@ def main(argv=None) -> int:
     ap.add_argument("--mode", choices=MODES, default="auto",
                     help="angles: the plan's leg angles open loop; footholds: its footholds through the controller; "
                          "auto: angles when the plan has them all")
+    ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE,
+                    help="how far [m, m/s] a touchdown or apex may be from the plan's")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None,
                     help="also write the certificate or counterexample here (JSON)")
     args = ap.parse_args(argv)
@@ -30,14 +39,13 @@ def main(argv=None) -> int:
 
     try:
         record = load_plan(args.plan)
+        if args.mode == "angles" and not all(abs(a) < 1.5707963 for a in record.leg_angles):
+            raise ValueError(f"--mode angles needs every leg angle; {args.plan} has NaN ones: use --mode footholds")
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    print(f"{record.planner} plan, {len(record.footholds)} footholds, start apex "
+    print(f"{record.planner} plan, {len(record.footholds)} footholds to target x={record.target_x:g}, start apex "
           f"({record.apex.x:g}, {record.apex.z:g}, {record.apex.xdot:g})")
-    try:
-        result = check_plan(record, args.mode)
-    except ValueError as error:  # e.g. mode angles on a plan without every angle
-        ap.error(str(error))
+    result = check_plan(record, args.mode, args.tolerance)
     print(result.format())
     if args.out:
         write_json(args.out, result.to_dict())

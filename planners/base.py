@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 import inspect
-import math
 import time
 from abc import ABC, abstractmethod
 from pathlib import Path
@@ -11,6 +10,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.params import check_count, check_number
+from drakeslip.state import as_apex
 from drakeslip.terrain import WINDOW_AHEAD
 
 # The plan aims this far short of the window's end when the goal lies beyond the window: the last footholds
@@ -92,15 +93,10 @@ class Budget:
     max_time_s: float = 60.0
 
     def __post_init__(self):
-        if isinstance(self.max_nodes, bool) or not (isinstance(self.max_nodes, int) and self.max_nodes >= 1):
-            raise ValueError(f"max_nodes must be a positive integer, got {self.max_nodes!r}")
-        calls = self.max_ode_calls
-        if calls is not None and (isinstance(calls, bool) or not isinstance(calls, int) or calls < 1):
-            raise ValueError(f"max_ode_calls must be a positive integer or None, got {calls!r}")
-        seconds = self.max_time_s
-        if isinstance(seconds, bool) or not (isinstance(seconds, (int, float)) and math.isfinite(seconds)
-                                             and seconds > 0):
-            raise ValueError(f"max_time_s must be a positive number of seconds, got {seconds!r}")
+        object.__setattr__(self, "max_nodes", check_count(self.max_nodes, "max_nodes"))
+        if self.max_ode_calls is not None:
+            object.__setattr__(self, "max_ode_calls", check_count(self.max_ode_calls, "max_ode_calls"))
+        object.__setattr__(self, "max_time_s", check_number(self.max_time_s, "max_time_s (seconds)", positive=True))
 
 
 @dataclass(frozen=True)
@@ -124,9 +120,9 @@ class Planner(ABC):
     def __init__(self, max_nodes: int = Budget.max_nodes, max_ode_calls: int | None = Budget.max_ode_calls,
                  max_time_s: float = Budget.max_time_s, horizon: float = WINDOW_AHEAD):
         self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
-        if not (math.isfinite(horizon) and horizon > TARGET_MARGIN):
+        self.horizon = check_number(horizon, "horizon")
+        if self.horizon <= TARGET_MARGIN:
             raise ValueError(f"horizon must be a finite distance above {TARGET_MARGIN} m, got {horizon!r}")
-        self.horizon = float(horizon)
 
     def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None) -> Plan:
         t0 = time.perf_counter()
@@ -144,18 +140,17 @@ class Planner(ABC):
         params = SlipParams() if params is None else params
         if not isinstance(params, SlipParams):
             raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
-        try:
-            apex = ApexState(*map(float, apex)).validate()
-        except TypeError as exc:
-            raise ValueError(f"apex must be (x, z, xdot), got {apex!r}") from exc
+        apex = as_apex(apex)
         ground = terrain.height_at(apex.x)
         if apex.z <= ground:
             raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+        rim = terrain.far_rim(apex.x)
+        if rim is not None and apex.z <= rim[1]:
+            raise ValueError(f"apex (x={apex.x}, z={apex.z}) is inside a ditch: its far side at x={rim[0]:g} rises to "
+                             f"{rim[1]:g} m, above the body")
         if apex.xdot <= 0:
             raise ValueError(f"apex xdot={apex.xdot} must be positive: the planners hop forward")
-        goal_x = float(goal_x)
-        if not math.isfinite(goal_x):
-            raise ValueError(f"goal_x must be finite, got {goal_x!r}")
+        goal_x = check_number(goal_x, "goal_x")
         window_end = min(apex.x + self.horizon, terrain.x_end)
         target_x = min(goal_x, window_end - TARGET_MARGIN)
         return Problem(apex, terrain, goal_x, params, window_end, target_x, t0 + self.budget.max_time_s)

@@ -58,6 +58,47 @@ def test_params_reject_non_positive_or_non_finite(field, value):
         ds.SlipParams(**{field: value})
 
 
+@pytest.mark.parametrize("field, value", [("mass", True), ("friction", np.bool_(False)), ("stiffness", "3200"),
+                                          ("gravity", None)])
+def test_params_reject_booleans_and_text(field, value):
+    with pytest.raises(ValueError, match=f"SlipParams.{field} must be a positive finite number, got {value!r}"):
+        ds.SlipParams(**{field: value})
+
+
+def test_numpy_scalars_are_numbers_wherever_a_float_is():
+    params = ds.SlipParams(mass=np.int64(7), friction=np.float32(0.5), min_leg_length=np.float16(0.25))
+    assert params == ds.SlipParams(mass=7.0, friction=float(np.float32(0.5)), min_leg_length=0.25)
+    assert all(type(v) is float for v in params.as_array().tolist())
+    terrain = ds.Terrain(np.zeros(10), cell=np.float32(0.1), x0=np.int32(-1), ditch_height=np.float64(-1.0))
+    assert (terrain.cell, terrain.x0, terrain.ditch_height) == (float(np.float32(0.1)), -1.0, -1.0)
+    from planners import Budget
+
+    assert Budget(max_nodes=np.int64(5)).max_nodes == 5
+
+
+@pytest.mark.parametrize("kwargs, match", [({"ditch_height": math.nan}, "ditch_height must be a finite number"),
+                                           ({"ditch_height": True}, "ditch_height must be a finite number"),
+                                           ({"cell": True}, "cell size must be a positive finite number"),
+                                           ({"x0": np.bool_(True)}, "x0 must be a finite number")])
+def test_terrain_rejects_booleans_and_nan_everywhere(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        ds.Terrain([0.0, 0.1], **kwargs)
+
+
+def test_a_planner_says_when_its_apex_is_inside_a_ditch():
+    import planners
+
+    heights = np.zeros(200)
+    heights[40:45] = ds.terrain.DITCH_HEIGHT  # a ditch over x in [1.0, 1.5)
+    terrain = ds.Terrain(heights)
+    for name in ("heuristic", "angle", "step"):
+        with pytest.raises(ValueError, match=r"apex \(x=1.2, z=-0.5\) is inside a ditch: its far side at x=1.5"):
+            planners.make(name).plan((1.2, -0.5, 2.0), terrain, 10.0)
+        with pytest.raises(ValueError, match="not above the terrain"):
+            planners.make(name).plan((0.5, -0.1, 2.0), terrain, 10.0)
+    assert planners.make("heuristic").plan((1.2, 0.9, 2.0), terrain, 10.0).success  # above the ditch: fine
+
+
 @pytest.mark.parametrize("min_leg", [0.0, 0.5, 0.7, math.nan])
 def test_params_reject_min_leg_outside_the_leg(min_leg):
     with pytest.raises(ValueError, match=f"min_leg_length.*{min_leg}"):
@@ -75,8 +116,8 @@ def test_params_default_stroke_and_geyer_runner():
 @pytest.mark.parametrize("apex, angle, match", [
     ((0.0, -0.1, 1.0), 0.1, r"apex z=-0.1 is not above the terrain"),
     ((0.0, 0.0, 1.0), 0.1, r"apex z=0.0 is not above the terrain"),
-    ((math.nan, 0.6, 1.0), 0.1, r"apex.x must be finite, got nan"),
-    ((0.0, 0.6, math.inf), 0.1, r"apex.xdot must be finite, got inf"),
+    ((math.nan, 0.6, 1.0), 0.1, r"apex.x must be a finite number, got nan"),
+    ((0.0, 0.6, math.inf), 0.1, r"apex.xdot must be a finite number, got inf"),
     ((0.0, 0.6, 1.0), math.nan, r"leg_angle .* got nan"),
     ((0.0, 0.6, 1.0), math.pi / 2, r"leg_angle .* got 1.57"),
     ((0.0, 0.6, 1.0), -2.0, r"leg_angle .* got -2.0"),

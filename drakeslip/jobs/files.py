@@ -2,11 +2,14 @@
 caches that let long jobs resume."""
 from __future__ import annotations
 
+import hashlib
 import json
 import os
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
+
+MANIFEST = "SHA256SUMS"  # beside committed weights: "<sha256>  <file name>" lines, as sha256sum writes them
 
 
 @contextmanager
@@ -77,3 +80,57 @@ def append_jsonl(sink, entry) -> None:
     sink.write(json.dumps(entry) + "\n")
     sink.flush()
     os.fsync(sink.fileno())
+
+
+def sha256(path) -> str:
+    """The SHA-256 of a file's bytes, in hex."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()
+
+
+def manifest_entries(folder) -> dict:
+    """{file name: sha256} from ``folder``'s manifest (empty without one)."""
+    path = Path(folder) / MANIFEST
+    if not path.is_file():
+        return {}
+    entries = {}
+    for line in path.read_text().splitlines():
+        digest, _, name = line.strip().partition("  ")
+        if digest and name:
+            entries[name] = digest
+    return entries
+
+
+def check_digest(path) -> bool:
+    """Verify a weights file against the manifest of its folder. Returns True when the manifest lists it and the
+    digest matches, False when no manifest lists it (a user's own file: its loader checks its structure); a
+    mismatch raises ValueError naming the file (changed or damaged since the manifest was written)."""
+    path = Path(path)
+    expected = manifest_entries(path.parent).get(path.name)
+    if expected is None:
+        return False
+    actual = sha256(path)
+    if actual != expected:
+        raise ValueError(f"weights file {path} does not match its SHA-256 in {path.parent / MANIFEST} "
+                         f"(expected {expected[:16]}..., got {actual[:16]}...): it was changed or damaged")
+    return True
+
+
+def first_line(error: BaseException) -> str:
+    """An exception's message cut to its first line (torch's loader explains itself over a dozen lines)."""
+    text = str(error).strip()
+    return text.splitlines()[0] if text else type(error).__name__
+
+
+def record_digest(path) -> None:
+    """After writing a weights file: update its entry in the manifest of its folder, if the folder has one."""
+    path = Path(path)
+    manifest = path.parent / MANIFEST
+    if not manifest.is_file():
+        return
+    entries = {**manifest_entries(path.parent), path.name: sha256(path)}
+    with atomic_write(manifest, "w") as f:
+        f.write("".join(f"{digest}  {name}\n" for name, digest in sorted(entries.items())))

@@ -1,10 +1,17 @@
-"""Plans as self-contained JSON files (``"format": "drakeslip-plan/1"``), so a plan can be checked, replayed or
+"""Plans as self-contained JSON files (``"format": "drakeslip-plan/2"``), so a plan can be checked, replayed or
 stress-tested later without the planner, the suite or the random terrain generator that produced it.
 
 A file holds everything the plan's execution depends on: the initial apex, the whole terrain (cell heights,
 not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper's
-parameters, the goal, and the plan itself: footholds, leg angles and predicted apexes. A planner that does not
+parameters, the goal, and the plan itself: footholds, leg angles and predicted apexes, and ``target_x``, the x its
+last foothold reaches by the plan's own account: the planner's target when the footholds pass it, else the last
+foothold (a plan that stops where the robot's view ends, or plans one step ahead). A planner that does not
 predict angles or apexes (``lstm`` gives only the first angle) leaves NaN there, stored as ``null``.
+
+A file whose fields disagree with each other is malformed (ValueError naming the field): lengths that differ,
+footholds that do not increase, a start or predicted apex not above the terrain, a start inside a ditch, a leg
+angle outside (-pi/2, pi/2), a predicted apex given in part. Version 1 files are read too (their ``target_x`` is
+the planner's target).
 """
 from __future__ import annotations
 
@@ -16,12 +23,15 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.params import check_number
+from drakeslip.state import as_apex, check_apex
 from drakeslip.terrain import DITCH_HEIGHT, TERRAIN_FAMILIES
 
 from planners.base import Plan
-from planners.formats.suite import checked_number, required_field
+from planners.formats.suite import required_field
 
-PLAN_FORMAT = "drakeslip-plan/1"
+PLAN_FORMAT = "drakeslip-plan/2"
+READ_FORMATS = ("drakeslip-plan/1", PLAN_FORMAT)
 
 
 @dataclass(frozen=True)
@@ -46,6 +56,26 @@ class PlanRecord:
         if self.leg_angles.shape != n or self.apexes.shape != (n[0], 3):
             raise ValueError(f"{n[0]} footholds need {n[0]} leg angles and {n[0]} apexes, got shapes "
                              f"{self.leg_angles.shape} and {self.apexes.shape}")
+        back = np.flatnonzero(np.diff(self.footholds) <= 0)
+        if back.size:
+            i = int(back[0]) + 1
+            raise ValueError(f"footholds must increase (the hopper moves forward): footholds[{i}] = "
+                             f"{self.footholds[i]:g} is not past footholds[{i - 1}] = {self.footholds[i - 1]:g}")
+        check_apex(self.apex, self.terrain, self.params)
+        rim = self.terrain.far_rim(self.apex.x)
+        if rim is not None and self.apex.z <= rim[1]:
+            raise ValueError(f"the start apex (x={self.apex.x:g}, z={self.apex.z:g}) is inside a ditch")
+        bad = np.flatnonzero(np.isfinite(self.leg_angles) & ~(np.abs(self.leg_angles) < math.pi / 2))
+        if bad.size:
+            raise ValueError(f"leg_angles[{bad[0]}] = {self.leg_angles[bad[0]]:g} is outside (-pi/2, pi/2)")
+        given = np.isfinite(self.apexes)
+        partial = np.flatnonzero(given.any(axis=1) & ~given.all(axis=1))
+        if partial.size:
+            raise ValueError(f"apexes[{partial[0]}] is given in part: {self.apexes[partial[0]].tolist()}")
+        for i in np.flatnonzero(given.all(axis=1)):
+            x, z, _ = self.apexes[i]
+            if z <= self.terrain.height_at(x):
+                raise ValueError(f"apexes[{i}] = ({x:g}, {z:g}) is not above the terrain")
 
     @classmethod
     def from_plan(cls, plan: Plan, apex, terrain, goal_x: float, params: SlipParams) -> "PlanRecord":
@@ -53,8 +83,9 @@ class PlanRecord:
         whole terrain, not the perception window the planner saw, so the check covers the real ground."""
         if not plan.success:
             raise ValueError(f"planner {plan.planner!r} found no plan to save: {plan.message}")
-        return cls(plan.planner, ApexState(*map(float, apex)).validate(), _terrain(terrain), params,
-                   float(goal_x), float(plan.target_x), np.array(plan.footholds, dtype=float),
+        reaches = min(float(plan.target_x), float(plan.footholds[-1]))
+        return cls(plan.planner, as_apex(apex), _terrain(terrain), params,
+                   float(goal_x), reaches, np.array(plan.footholds, dtype=float),
                    np.array(plan.leg_angles, dtype=float), np.array(plan.apexes, dtype=float).reshape(-1, 3))
 
     def to_dict(self) -> dict:
@@ -68,8 +99,8 @@ class PlanRecord:
     def from_dict(cls, d, source: str = "plan") -> "PlanRecord":
         """Check every field; a bad one raises ValueError naming ``source`` and the field (e.g. footholds[2])."""
         fmt = required_field(d, "format", source)
-        if fmt != PLAN_FORMAT:
-            raise ValueError(f"{source}: format must be {PLAN_FORMAT!r}, got {fmt!r}")
+        if fmt not in READ_FORMATS:
+            raise ValueError(f"{source}: format must be one of {READ_FORMATS}, got {fmt!r}")
         planner = required_field(d, "planner", source)
         if not isinstance(planner, str):
             raise ValueError(f"{source}: planner must be a string, got {planner!r}")
@@ -78,12 +109,12 @@ class PlanRecord:
         heights = required_field(t, "heights", where)
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.heights must be a non-empty list of numbers")
-        terrain = Terrain([checked_number(h, f"{where}.heights[{j}]") for j, h in enumerate(heights)],
-                          cell=checked_number(required_field(t, "cell", where), f"{where}.cell", positive=True),
-                          x0=checked_number(required_field(t, "x0", where), f"{where}.x0"),
-                          ditch_height=checked_number(required_field(t, "ditch_height", where), f"{where}.ditch_height"))
+        terrain = Terrain([check_number(h, f"{where}.heights[{j}]") for j, h in enumerate(heights)],
+                          cell=check_number(required_field(t, "cell", where), f"{where}.cell", positive=True),
+                          x0=check_number(required_field(t, "x0", where), f"{where}.x0"),
+                          ditch_height=check_number(required_field(t, "ditch_height", where), f"{where}.ditch_height"))
         a = required_field(d, "apex", source)
-        apex = ApexState(*(checked_number(required_field(a, k, f"{source}: apex"), f"{source}: apex.{k}") for k in ApexState._fields))
+        apex = ApexState(*(check_number(required_field(a, k, f"{source}: apex"), f"{source}: apex.{k}") for k in ApexState._fields))
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{source}: apex.z={apex.z} is not above the terrain at x={apex.x}")
         p = required_field(d, "params", source)
@@ -93,7 +124,7 @@ class PlanRecord:
             params = SlipParams(**p)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{source}: params: {exc}") from exc
-        footholds = [checked_number(v, f"{source}: footholds[{i}]") for i, v in enumerate(_list(d, "footholds", source))]
+        footholds = [check_number(v, f"{source}: footholds[{i}]") for i, v in enumerate(_list(d, "footholds", source))]
         n = len(footholds)
         angles = [_optional(v, f"{source}: leg_angles[{i}]") for i, v in enumerate(_list(d, "leg_angles", source, n))]
         apexes = []
@@ -101,9 +132,13 @@ class PlanRecord:
             if not isinstance(row, list) or len(row) != 3:
                 raise ValueError(f"{source}: apexes[{i}] must be [x, z, xdot], got {row!r}")
             apexes.append([_optional(v, f"{source}: apexes[{i}][{j}]") for j, v in enumerate(row)])
-        return cls(planner, apex, terrain, params, checked_number(required_field(d, "goal_x", source), f"{source}: goal_x"),
-                   checked_number(required_field(d, "target_x", source), f"{source}: target_x"), np.array(footholds),
-                   np.array(angles), np.array(apexes).reshape(n, 3))
+        goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x")
+        target_x = check_number(required_field(d, "target_x", source), f"{source}: target_x")
+        try:
+            return cls(planner, apex, terrain, params, goal_x, target_x, np.array(footholds), np.array(angles),
+                       np.array(apexes).reshape(n, 3))
+        except ValueError as exc:
+            raise ValueError(f"{source}: {exc}") from exc
 
     def save(self, path) -> None:
         """Write atomically (temporary file, then rename); strict JSON: NaN is written as null."""
@@ -144,7 +179,7 @@ def _nulls(values: np.ndarray) -> list:
 
 def _optional(value, where: str) -> float:
     """A number or null (NaN: the planner made no prediction)."""
-    return math.nan if value is None else checked_number(value, where)
+    return math.nan if value is None else check_number(value, where)
 
 
 def _list(d, key: str, source: str, length: int | None = None) -> list:

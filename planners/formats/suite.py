@@ -2,11 +2,11 @@
 from __future__ import annotations
 
 import json
-import math
 from dataclasses import dataclass
 
 from drakeslip import ApexState, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.params import check_number
 from drakeslip.terrain import TERRAIN_FAMILIES
 
 SUITE_FORMAT = "drakeslip-suite/1"
@@ -67,15 +67,6 @@ def save_suite(suite: Suite, path) -> None:
         json.dump(suite.to_dict(), f)
 
 
-def checked_number(value, where: str, positive: bool = False) -> float:
-    """``value`` as a float if it is a finite number (and positive if asked); else ValueError naming ``where``."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
-            or (positive and value <= 0):
-        kind = "a positive finite number" if positive else "a finite number"
-        raise ValueError(f"{where} must be {kind}, got {value!r}")
-    return float(value)
-
-
 def required_field(d, key, where):
     """``d[key]``, or a ValueError naming ``where`` when d is not an object or lacks the key (for JSON files)."""
     if not isinstance(d, dict):
@@ -93,8 +84,8 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     name = required_field(d, "name", source)
     if not isinstance(name, str):
         raise ValueError(f"{source}: name must be a string, got {name!r}")
-    goal_x = checked_number(required_field(d, "goal_x", source), f"{source}: goal_x")
-    friction = checked_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
+    goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x")
+    friction = check_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
     raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
@@ -106,16 +97,16 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
             raise ValueError(f"{where}.id must be a unique string, got {case_id!r}")
         ids.add(case_id)
         t = required_field(c, "terrain", where)
-        x0 = checked_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
-        cell = checked_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
+        x0 = check_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
+        cell = check_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
         heights = required_field(t, "heights", f"{where}.terrain")
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
         for j, h in enumerate(heights):
-            checked_number(h, f"{where}.terrain.heights[{j}]")
+            check_number(h, f"{where}.terrain.heights[{j}]")
         terrain = Terrain(heights, cell=cell, x0=x0)
         a = required_field(c, "apex", where)
-        apex = ApexState(*(checked_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
+        apex = ApexState(*(check_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:

@@ -5,7 +5,8 @@ import math
 
 import numpy as np
 
-from drakeslip import ApexState, StepLengthController, Terrain
+from drakeslip import StepLengthController, Terrain
+from drakeslip.state import as_apex
 
 from planners.base import FootstepSequence, Plan, Planner, Problem
 from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
@@ -106,7 +107,7 @@ class LSTMPlanner(Planner):
     def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0):
         """Per-step probabilities over the window's bins (its cells, or their parts for a sub-cell model),
         (n, bins), and the bins' centres x (bins,)."""
-        apex = ApexState(*map(float, apex)).validate()
+        apex = as_apex(apex)
         enc = encode_window(terrain, apex)
         return self.net.rollout(enc, n, temperature), self.net.centres(enc)
 

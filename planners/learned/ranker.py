@@ -20,7 +20,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from drakeslip.jobs.files import atomic_write
+from drakeslip.jobs.files import atomic_write, check_digest, first_line, record_digest
 
 from planners.base import Problem
 
@@ -59,22 +59,27 @@ class RankerNet(nn.Module):
 
 
 def save_ranker(path, net: RankerNet, mean: np.ndarray, std: np.ndarray, extra: dict | None = None) -> None:
+    """Write the ranker atomically: its network, and its feature normalisation as tensors (so it loads with
+    ``weights_only``)."""
     payload = {"format": FORMAT, "hidden": net.hidden, "n_features": N_FEATURES, "state_dict": net.state_dict(),
-               "mean": np.asarray(mean, np.float32), "std": np.asarray(std, np.float32), **(extra or {})}
+               "mean": torch.tensor(np.asarray(mean, np.float32)), "std": torch.tensor(np.asarray(std, np.float32)),
+               **(extra or {})}
     with atomic_write(path) as f:
         torch.save(payload, f)
+    record_digest(path)
 
 
 class FootholdRanker:
     """A trained ranker in numpy: ``scores(features)`` (higher: more room expected)."""
 
     def __init__(self, path):
+        check_digest(path)
         try:
-            payload = torch.load(path, map_location="cpu", weights_only=False)
+            payload = torch.load(path, map_location="cpu", weights_only=True)
         except FileNotFoundError:
             raise
         except Exception as err:
-            raise ValueError(f"cannot read ranker weights file {path}: {err}") from err
+            raise ValueError(f"cannot read ranker weights file {path}: {first_line(err)}") from err
         if not isinstance(payload, dict) or payload.get("format") != FORMAT:
             raise ValueError(f"{path} is not a drakeslip ranker checkpoint (missing format {FORMAT!r})")
         try:
@@ -82,9 +87,9 @@ class FootholdRanker:
                 raise ValueError(f"it has {payload['n_features']} features, this code {N_FEATURES}")
             net = RankerNet(payload["hidden"])
             net.load_state_dict(payload["state_dict"])
-            self.mean, self.std = (np.asarray(payload[k], np.float64).reshape(N_FEATURES) for k in ("mean", "std"))
-        except (KeyError, TypeError, RuntimeError, ValueError) as err:
-            raise ValueError(f"ranker weights file {path} does not match the ranker: {err}") from err
+            self.mean, self.std = (payload[k].double().numpy().reshape(N_FEATURES) for k in ("mean", "std"))
+        except (KeyError, TypeError, AttributeError, RuntimeError, ValueError) as err:
+            raise ValueError(f"ranker weights file {path} does not match the ranker: {first_line(err)}") from err
         self.layers = [(m.weight.detach().double().numpy().T, m.bias.detach().double().numpy())
                        for m in net.mlp if isinstance(m, nn.Linear)]
 

@@ -1,6 +1,6 @@
 """The terrain-heuristic baseline (paper, section VII, after Magana et al. and Kim et al.): a nominal gait
 from the apex speed, with each step moved to the nearest safe cell when it falls in a ditch or near an edge.
-It never simulates while planning (zero ODE calls); its predicted apexes are the nominal gait's."""
+It never simulates while planning (zero ODE calls) and so predicts no apexes."""
 from __future__ import annotations
 
 import functools
@@ -61,7 +61,7 @@ class HeuristicPlanner(Planner):
     in a ditch and no edge lies within ``edge_margin`` of it; an unsafe one moves to the nearest safe cell
     centre within ``max_shift`` (ties go forward), else there is no plan. The gait goes on
     from the foothold actually chosen. The controller picks the leg angles when the plan is executed, so
-    the plan's ``leg_angles`` are NaN."""
+    the plan's ``leg_angles`` are NaN, and so are its apexes (the gait table's are not a prediction)."""
 
     name = "heuristic"
 
@@ -81,7 +81,7 @@ class HeuristicPlanner(Planner):
         offset_table, advance_table = neutral_gait(problem.params.with_friction(1.0))
         v, z = apex.xdot, apex.z
         shifts = np.arange(1, int(round(self.max_shift / terrain.cell)) + 1) * terrain.cell
-        footholds, apexes = [], []
+        footholds = []
         apex_x = apex.x
         while not footholds or footholds[-1] < problem.target_x:
             # the neutral foothold for the drop to the surface it lands on (found from the ground below first;
@@ -113,6 +113,6 @@ class HeuristicPlanner(Planner):
                 x = moved
             footholds.append(float(x))
             apex_x += interpolate(advance_table, v, z - terrain.height_at(x))
-            apexes.append((apex_x, z, v))
-        seq = FootstepSequence(np.array(footholds), np.full(len(footholds), np.nan), np.array(apexes))
+        n = len(footholds)  # the controller picks the angles and the gait table only guesses the apexes: NaN
+        seq = FootstepSequence(np.array(footholds), np.full(n, np.nan), np.full((n, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])

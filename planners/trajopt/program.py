@@ -40,8 +40,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip import SlipParams, Terrain
 from drakeslip import dynamics as dyn
+from drakeslip.state import as_apex
 from planners.trajopt.autodiff import Dual, dual_constraint, generic
 from planners.trajopt.collocation import defect_sparsity, interior_leg_lengths, stance_defects
 from planners.trajopt.config import ANGLE_SCALE, EDGE_SCALE, SPEED_SCALE, TrajoptConfig, TrajoptError
@@ -100,7 +101,7 @@ class SlipTrajopt:
         from pydrake.solvers import MathematicalProgram
 
         t0 = time.perf_counter()
-        self.apex0 = ApexState(*map(float, apex)).validate()
+        self.apex0 = as_apex(apex)
         self.terrain = terrain
         self.segs = list(segs)
         self.params = params = params or SlipParams()

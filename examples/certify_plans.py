@@ -1,0 +1,86 @@
+r"""Are each planner's plans what they say? The first plan of every case, checked on Drake as written.
+
+    python3 examples/certify_plans.py --suite suites/step.json --every 15 --jobs 2 --out out/certify-step.json
+
+For every planner label and every chosen case, the plan from the case's start apex (on its perception window) is
+saved as a plan file would save it and checked by verification/plan_check.py: CERTIFIED when the Drake run
+completes every hop with no failure, touches down within --tolerance of every foothold, reaches every predicted
+apex within --tolerance and reaches the plan's target; else the first mismatch. Finished cases are kept in
+OUT.cases.jsonl (a killed run resumes).
+
+Exit status: 0 when the checks ran (whatever their verdicts), 2 for a usage or input error.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from collections import Counter
+
+from drakeslip.jobs import cli
+from planners.registry import check_label, labels
+
+MODES = ("angles", "footholds", "auto")
+
+
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
+    ap.add_argument("--planners", type=cli.names, default=",".join(label for label in labels() if label != "trajopt"),
+                    help="planner labels, comma-separated")
+    ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
+    ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")
+    ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")
+    ap.add_argument("--tolerance", type=cli.positive, default=0.01, help="foothold and apex tolerance [m, m/s]")
+    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON")
+    ap.add_argument("--quiet", action="store_true", help="no progress bar")
+    cli.add_parallel(ap)
+    args = ap.parse_args(argv)
+    executor = cli.executor(args)
+
+    from tqdm import tqdm
+
+    from drakeslip.jobs.executors import prepare
+    from drakeslip.jobs.runner import JsonLinesStore, run, write_json
+    from planners.formats.suite import load_suite
+    from verification import certify
+
+    try:
+        specs = {check_label(label): None for label in args.planners}
+        setup = (certify.prepare, (specs,))
+        prepare(setup)
+        suite = load_suite(args.suite)
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    cli.announce(argv)
+    cases = list(suite.cases[::args.every])[:args.cases]
+    key = lambda label, c: hashlib.sha256(json.dumps(
+        [label, c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode, args.tolerance],
+        sort_keys=True).encode()).hexdigest()[:20]
+    tasks = [(key(label, c), (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()},
+                               suite.goal_x, suite.friction, args.mode, args.tolerance)) for label in specs for c in cases]
+    records = {}
+    with tqdm(total=len(tasks), disable=args.quiet, unit="plan", desc=suite.name) as bar:
+        for k, record in run(certify.certify_case, tasks, JsonLinesStore(str(args.out) + ".cases.jsonl"), executor,
+                             setup):
+            records[k] = record
+            bar.update()
+    ordered = [records[k] for k, _ in tasks]
+    write_json(args.out, {"suite": suite.name, "mode": args.mode, "tolerance": args.tolerance, "plans": ordered})
+    print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7}  first mismatches")
+    for label in specs:
+        mine = [r for r in ordered if r["label"] == label]
+        count = Counter(r["verdict"] for r in mine)
+        kinds = Counter(r["kind"] if r["kind"] != "failure" else r["reason"].split()[0] for r in mine
+                        if r["verdict"] == "counterexample")
+        print(f"{label:<20} {count['certified']:>4} / {len(mine):<2} {count['counterexample']:>14} "
+              f"{count['no plan']:>7}  {', '.join(f'{k} {v}' for k, v in kinds.items()) or '-'}")
+    for r in ordered:
+        if r["verdict"] != "certified":
+            print(f"  {r['label']} {r['id']}: {r['verdict']}: {r['reason']}")
+    print(f"wrote {args.out}")
+    return cli.OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

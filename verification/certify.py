@@ -1,0 +1,36 @@
+"""Are a planner's plans what they say? Each case's first plan (from its start apex, on its perception window),
+saved as a plan file would save it and checked on Drake (``plan_check``): certified, or the first mismatch."""
+from __future__ import annotations
+
+from drakeslip import SlipParams, StepLengthController
+
+from planners.formats.plan import PlanRecord
+from planners.formats.suite import suite_from_dict
+from planners.registry import make_planners
+from verification.plan_check import check_plan
+
+_WORKER: dict = {}
+
+
+def prepare(specs: dict) -> None:
+    """Build the planners of ``specs`` (label -> options) in this process (a worker's setup)."""
+    controller = StepLengthController.load_default()
+    _WORKER.update(controller=controller, planners=make_planners(specs, controller))
+
+
+def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float) -> dict:
+    """{"label", "id", "verdict", "reason", "hops", "kind", "hop"} for the first plan of ``label`` on ``case`` (a
+    suite's case entry): "certified", "counterexample" (with its reason) or "no plan"."""
+    suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "case", "goal_x": goal_x, "friction": friction,
+                             "cases": [case]})
+    c, params = suite.cases[0], SlipParams(friction=friction)
+    plan = _WORKER["planners"][label].plan(c.apex, c.terrain.perceived(c.apex.x), goal_x, params)
+    record = {"label": label, "id": c.id, "kind": None, "hop": None}
+    if not plan.success:
+        return {**record, "verdict": "no plan", "reason": plan.message, "hops": 0}
+    result = check_plan(PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params), mode, tolerance,
+                        controller=_WORKER["controller"])
+    if result.ok:
+        return {**record, "verdict": "certified", "reason": "", "hops": len(result.footholds)}
+    return {**record, "verdict": "counterexample", "reason": result.reason(), "hops": len(plan.footholds),
+            "kind": result.kind, "hop": result.hop}
