@@ -86,11 +86,21 @@ def _policy_from(leg_angles) -> Callable:
 def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | None = None,
              params: SlipParams | None = None, max_hops: int | None = None, max_time: float = 60.0,
              max_hop_time: float = 5.0, integrator: IntegratorConfig | None = None,
-             log: bool = True) -> SimulationResult:
+             log: bool = True, add_to: Callable | None = None) -> SimulationResult:
     """Simulate hops from ``apex`` in Drake until the first failure, the commands run out, ``max_hops``
     apexes are reached, or ``max_time``. ``leg_angles`` is a list (one per hop) or a callback
     ``f(apex: ApexState, hop_index) -> angle | None``, called at each apex. A hop that takes longer than
-    ``max_hop_time`` is a STALL."""
+    ``max_hop_time`` is a STALL.
+
+    ``add_to`` adds your own systems to the diagram: ``add_to(builder, hopper)`` is called with the
+    DiagramBuilder and the SlipHopper once the hopper and its apex policy are added and connected, before
+    ``Build()``; connect to the hopper's output ports ``"state"`` (x, z, xdot, zdot) and ``"hybrid"``
+    (HybridState) - its one input port is already taken by the policy. If it returns a callable, that is called
+    with the Simulator once the run has ended, e.g. to read a log: ``sink.FindLog(simulator.get_context())``.
+    Systems that only publish on every step (loggers, a visualizer publishing per step) leave the run as it is;
+    a periodic publish or update event makes the integrator stop at its times too, and added continuous state
+    is integrated (and error-controlled) with the hopper's: either moves the integrator's steps, and so the
+    result within the integrator's accuracy."""
     params = params or SlipParams()
     terrain = terrain or Terrain.flat()
     apex = check_apex(apex, terrain, params)
@@ -116,6 +126,7 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     builder.Connect(controller.get_output_port(0), hopper.get_input_port(0))
     state_log = LogVectorOutput(hopper.GetOutputPort("state"), builder) if log else None
     hybrid_log = LogVectorOutput(hopper.GetOutputPort("hybrid"), builder) if log else None
+    when_done = add_to(builder, hopper) if add_to is not None else None
     diagram = builder.Build()
 
     simulator = Simulator(diagram)
@@ -143,6 +154,8 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     simulator.set_monitor(monitor)
     simulator.Initialize()
     simulator.AdvanceTo(max_time)
+    if callable(when_done):
+        when_done(simulator)
 
     events = hopper.event_log(hopper_context)
     h = hopper.hybrid(hopper_context)

@@ -5,7 +5,10 @@ map, each success is stepped once more over the same grid, and the angle that su
 neighbours that survive too) and keeps the speed closest to the nominal speed is commanded. The hops
 themselves run in Drake's simulator.
 
-    python3 examples/hop.py --terrain step --seed 3 --out out/hop.png --anim out/hop.gif
+    python3 examples/hop.py --terrain step --seed 3 --out out/hop.png --anim out/hop.gif --html out/hop.html
+
+--html writes a Meshcat replay (one HTML file, opens offline) with the lookahead's predicted footholds and
+apexes beside what Drake did.
 """
 from __future__ import annotations
 
@@ -28,8 +31,15 @@ class TwoHopLookahead:
         self.terrain, self.params, self.nominal_speed = terrain, params, nominal_speed
         self.angles = np.linspace(-params.max_leg_angle, params.max_leg_angle, N_ANGLES)
         self.warnings: dict[int, str] = {}
+        self.predicted: dict[int, ds.StepResult] = {}  # the fast step map's hop for each commanded angle
 
     def __call__(self, apex: ds.ApexState, hop: int) -> float | None:
+        angle = self.choose(apex, hop)
+        if angle is not None:
+            self.predicted[hop] = ds.step(apex, angle, self.terrain, self.params)
+        return angle
+
+    def choose(self, apex: ds.ApexState, hop: int) -> float | None:
         angles, v = self.angles, self.nominal_speed
         first = ds.step_batch(apex, angles, self.terrain, self.params)
         ok = np.flatnonzero(first.ok)
@@ -87,6 +97,8 @@ def main(argv=None) -> int:
     ap.add_argument("--hops", type=cli.positive_int, default=10, help="number of hops to simulate")
     ap.add_argument("--out", type=cli.output_file(".png", ".pdf", ".svg"), required=True, help="figure to write")
     ap.add_argument("--anim", type=cli.output_file(".gif"), default=None, help="also write an animation (GIF)")
+    ap.add_argument("--html", type=cli.output_file(".html"), default=None,
+                    help="also write a Meshcat replay (self-contained HTML)")
     ap.add_argument("--x0", type=cli.finite, default=0.0, help="start apex x [m]")
     ap.add_argument("--z", type=cli.finite, default=0.75, help="start apex height, absolute [m]")
     ap.add_argument("--xdot", type=cli.positive, default=1.5,
@@ -114,6 +126,14 @@ def main(argv=None) -> int:
         args.anim.parent.mkdir(parents=True, exist_ok=True)
         frames = animate(result, args.anim)
         print(f"animation: {args.anim} ({frames} frames)")
+    if args.html:
+        from drakeslip.meshcat_replay import write_replay
+
+        predicted = [policy.predicted[hop] for hop in sorted(policy.predicted)]
+        write_replay(result, args.html, planned_footholds=[p.touchdown_x for p in predicted if p.ok],
+                     predicted_apexes=[p.next_apex for p in predicted if p.ok],
+                     title=f"hop.py: {args.terrain} terrain, seed {args.seed}")
+        print(f"replay: {args.html}")
     return cli.FAILED if result.failure is not None else cli.OK
 
 
