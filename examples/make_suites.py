@@ -2,6 +2,8 @@
 
     python3 examples/make_suites.py                       # the committed suites/ditch.json and suites/step.json
     python3 examples/make_suites.py --seed 5000 --families ditch,step,mixed --out out/fresh   # fresh ones
+    python3 examples/make_suites.py --families step --seed 90000 --speeds 0.8,1.5,2.2 --heights 0.65,0.75 \
+        --out out/low     # low-energy starts (the oracle's hard cases)
 
 Each family's suite is written to OUT/NAME.json: NAME is the family for the committed seeds, FAMILY-SEED for
 fresh ones (terrain i of the k-th family uses seed SEED + 1000 k + i).
@@ -16,7 +18,7 @@ import sys
 
 from drakeslip import TERRAIN_FAMILIES
 from drakeslip.jobs import cli
-from planners.formats.suite import COMMITTED_SEEDS, PAPER_TERRAINS
+from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
 
 
 def output_folder(text: str):
@@ -42,6 +44,10 @@ def main(argv=None) -> int:
                          "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
                                                                            COMMITTED_SEEDS.items()))
     ap.add_argument("--terrains", type=cli.positive_int, default=PAPER_TERRAINS, help="terrains per suite")
+    ap.add_argument("--speeds", type=cli.numbers(None, cli.positive), default=PAPER_SPEEDS,
+                    help="apex speeds of the starts, m/s, comma-separated (default: %(default)s)")
+    ap.add_argument("--heights", type=cli.numbers(None, cli.positive), default=PAPER_HEIGHTS,
+                    help="apex heights of the starts, m, comma-separated (default: %(default)s)")
     ap.add_argument("--out", type=output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
     unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
@@ -60,7 +66,7 @@ def main(argv=None) -> int:
 
     for k, family in enumerate(args.families):
         seed = COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
-        suite = make_suite(family, seed, n_terrains=args.terrains,
+        suite = make_suite(family, seed, n_terrains=args.terrains, speeds=args.speeds, heights=args.heights,
                            name=family if args.seed is None else f"{family}-{seed}")
         path = args.out / f"{suite.name}.json"
         save_suite(suite, path)

@@ -3,12 +3,21 @@
     python3 examples/model_check.py --suite suites/ditch.json --cases 150 --out out/oracle-ditch.json
     python3 examples/model_check.py --suite suites/step.json --cases 30 --seed 0 --out out/oracle-step.json
 
-For each case the oracle searches the apex states reachable over a grid of leg angles (0.5 deg, then 0.25 deg
-to confirm a "not-traversable"), merging apexes within 1 cm / 1 cm/s, with the whole terrain known, and
-executes any witness on Drake (see verification/model_check.py for what the verdicts mean exactly). Each
-finished case is appended to OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume starts
-over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases at a
-time in separate processes (--executor ray: on a Ray cluster).
+Each case gets one verdict (verification/model_check.py has the details), with a one-line statement of what it
+rests on:
+  traversable              a witness: leg angles from the grid that reach the goal when executed on Drake.
+  proved-not-traversable   the energy argument (verification/energy_bound.py) shows no run of the model reaches
+                           the goal, for any leg angles: e.g. every step ahead that must be landed on lies above
+                           the landing ceiling H - L0 cos(atan mu) and none can be flown over. No search is run.
+  not-traversable          no plan over the leg-angle grid at the resolution it states ("holds_at"): the
+                           0.5 deg pass (apexes merged within 1 cm x 1 cm/s) exhausted the apexes reachable on the
+                           fast step map (none slower than 0.1 m/s), and then the 0.25 deg pass (5 mm x 1 cm/s) too,
+                           or it ran out of budget first ("unconfirmed"; with --confirm such a case is unknown).
+  unknown                  the seconds or nodes ran out (a pass that had exhausted is named), or Drake rejected
+                           the witnesses. The ceiling lies between "ceiling" and "at most" then.
+Each finished case is appended to OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume
+starts over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases
+at a time in separate processes (--executor ray: on a Ray cluster).
 
 Exit status: 0 done, 1 a planner crossed a case the oracle calls not traversable (--against), 2 a usage error.
 """
@@ -34,6 +43,12 @@ def main(argv=None) -> int:
     ap.add_argument("--seconds", type=cli.positive, default=DEFAULT_BUDGET.max_time_s, help="search seconds per case")
     ap.add_argument("--no-refine", action="store_true",
                     help="call a case not traversable after the 0.5 deg pass alone (no 0.25 deg confirmation)")
+    ap.add_argument("--confirm", action="store_true",
+                    help="call a case not traversable only when the 0.25 deg pass exhausts too (else unknown)")
+    ap.add_argument("--parallel-steps", action="store_true",
+                    help="spread each case's hops over all cores (only with --jobs 1; the same verdicts, sooner)")
+    ap.add_argument("--no-energy", action="store_true",
+                    help="search without the energy argument: no proved verdicts, no pruning (diagnosis only)")
     ap.add_argument("--no-drake-check", action="store_true",
                     help="accept witnesses on the fast step map without executing them on Drake (diagnosis only)")
     ap.add_argument("--against", type=cli.names, default=None,
@@ -45,12 +60,14 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.ids and (args.cases or args.seed is not None):
         ap.error("--ids names the cases; it does not go with --cases or --seed")
+    if args.parallel_steps and (args.jobs > 1 or args.executor != "local"):
+        ap.error("--parallel-steps uses every core for one case: it goes with --jobs 1 and the local executor")
     executor = cli.executor(args)
 
     from drakeslip.jobs.runner import remove, write_json
     from planners.base import Budget
     from planners.formats.suite import load_suite
-    from verification.model_check import COARSE, LEVELS, NOT_TRAVERSABLE, UNKNOWN
+    from verification.model_check import COARSE, LEVELS, TRAVERSABLE
     from verification.model_check_suite import check_suite, cross_check, select_cases
 
     try:
@@ -67,18 +84,25 @@ def main(argv=None) -> int:
         remove(cache)
     results = check_suite(suite, cases, cache, Budget(args.budget, max_time_s=args.seconds),
                           levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
-                          progress=not args.quiet, executor=executor)
+                          progress=not args.quiet, executor=executor, energy=not args.no_energy,
+                          confirm=args.confirm, parallel=args.parallel_steps)
     write_json(args.out, results)
 
     s = results["summary"]
     for r in results["cases"]:
-        if r["verdict"] in (NOT_TRAVERSABLE, UNKNOWN):
-            stops = ", ".join(f"{p['angle_deg']:g} deg: {p['stop']} after {p['nodes']} nodes" for p in r["passes"])
-            print(f"  {r['id']:<24} {r['verdict']:<16} {r['time_s']:7.1f} s  ({stops})")
+        if r["verdict"] != TRAVERSABLE:
+            print(f"  {r['id']:<24} {r['verdict']:<22} {r['time_s']:7.1f} s  {r['statement']}")
     times = sorted(r["time_s"] for r in results["cases"])
-    print(f"{suite.name}: {s['cases']} cases: {s['traversable']} traversable, {s['not_traversable']} not traversable, "
-          f"{s['unknown']} unknown; decided {100 * s['decided_rate']:.1f} %, ceiling {100 * s['ceiling']:.1f} %"
+    print(f"{suite.name}: {s['cases']} cases: {s['traversable']} traversable, {s['not_traversable']} not traversable "
+          f"({s['proved_not_traversable']} proved, {s['not_traversable_grid']} at grid resolution), {s['unknown']} "
+          f"unknown; decided {100 * s['decided_rate']:.1f} %, ceiling {100 * s['ceiling']:.1f} %"
           + (f" (at most {100 * s['ceiling_upper']:.1f} %)" if s["unknown"] else ""))
+    for text, k in s["grid_holds_at"].items():
+        print(f"  not traversable at grid resolution {text}: {k}")
+    if s["proved_not_traversable"]:
+        print(f"  proved not traversable (energy: no leg angles at all): {s['proved_not_traversable']}")
+    if s["unknown"]:
+        print("  unknown: " + ", ".join(f"{k} ({why})" for why, k in s["unknown_why"].items()))
     print(f"time per case: median {s['time_s_median']:.2f} s, mean {sum(times) / len(times):.2f} s, "
           f"max {times[-1]:.1f} s")
     print(f"wrote {args.out}")

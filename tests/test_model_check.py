@@ -1,4 +1,6 @@
-"""The model-checking oracle on tiny terrains with known answers, its Drake witnesses, budgets and the CLI."""
+"""The model-checking oracle on tiny terrains with known answers, its Drake witnesses, budgets, what its verdicts
+say, a refinement of its grid verdicts (finer angles, no merging) and the CLI."""
+import math
 import json
 import re
 from pathlib import Path
@@ -6,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from drakeslip import SlipParams, Terrain
+from drakeslip import SlipParams, Terrain, step_batch
 from drakeslip.simulation import simulate
 from planners.base import Budget
 from planners.formats.suite import load_suite, make_suite, save_suite
@@ -54,23 +56,84 @@ def test_a_narrow_ditch_is_traversable():
     assert not any(1.5 <= x < 1.8 for x in r["witness"]["footholds"])
 
 
-def test_a_three_metre_ditch_is_not_traversable():
-    r = mc.model_check((0.0, 1.0, 1.5), terrain((1.5, 4.5, -1.0)), 5.5, PARAMS, levels=(mc.COARSE,), budget=SMALL)
-    assert r["verdict"] == mc.NOT_TRAVERSABLE and r["witness"] is None
+def test_a_three_metre_ditch_is_proved_not_traversable_and_the_search_agrees():
+    ditch = terrain((1.5, 4.5, -1.0))
+    r = mc.model_check((0.0, 1.0, 1.5), ditch, 5.5, PARAMS, levels=(mc.COARSE,), budget=SMALL)
+    assert r["verdict"] == mc.PROVED_NOT_TRAVERSABLE and r["nodes"] == 0 and r["witness"] is None
+    assert r["proof"]["proof"] == "energy" and r["statement"].startswith("proved: ")
+    r = mc.model_check((0.0, 1.0, 1.5), ditch, 5.5, PARAMS, levels=(mc.COARSE,), budget=SMALL, energy=False)
+    assert r["verdict"] == mc.NOT_TRAVERSABLE and r["witness"] is None and r["proof"] is None
     assert r["passes"][0]["stop"] == "exhausted" and r["nodes"] > 100
+    assert r["holds_at"] == {"angle_deg": 0.5, "merge_x": 0.01, "merge_xdot": 0.01, "min_speed": mc.MIN_SPEED,
+                             "coarser": []}
+    assert "0.5 deg / 1 cm x 1 cm/s (apexes >= 0.1 m/s)" in r["statement"]
 
 
-def test_a_step_taller_than_the_energy_allows_is_not_traversable_at_both_resolutions():
+def test_a_step_taller_than_the_energy_allows_is_proved_and_not_traversable_at_both_resolutions():
     # apex energy reaches 0.9 + 1.5^2 / (2 g) = 1.01 m: a 1.2 m step can be neither landed on nor passed
-    r = mc.model_check((0.0, 0.9, 1.5), terrain((1.5, 8.0, 1.2)), 3.0, PARAMS, budget=SMALL)
+    step = terrain((1.5, 8.0, 1.2))
+    proved = mc.model_check((0.0, 0.9, 1.5), step, 3.0, PARAMS, budget=SMALL)
+    assert proved["verdict"] == mc.PROVED_NOT_TRAVERSABLE and "never be as high" in proved["statement"]
+    r = mc.model_check((0.0, 0.9, 1.5), step, 3.0, PARAMS, budget=SMALL, energy=False)
     assert r["verdict"] == mc.NOT_TRAVERSABLE
     assert [p["angle_deg"] for p in r["passes"]] == [0.5, 0.25]
     assert all(p["stop"] == "exhausted" for p in r["passes"])
+    assert r["holds_at"]["angle_deg"] == 0.25 and r["holds_at"]["merge_x"] == 0.005
+    assert r["holds_at"]["coarser"] == [{"angle_deg": 0.5, "merge_x": 0.01, "merge_xdot": 0.01}]
+    assert "unconfirmed" not in r["holds_at"] and "then 0.25 deg / 0.5 cm x 1 cm/s" in r["statement"]
 
 
 def test_a_budget_that_runs_out_gives_unknown():
-    r = mc.model_check((0.0, 1.0, 1.5), terrain((1.5, 4.5, -1.0)), 5.5, PARAMS, budget=Budget(100, max_time_s=30.0))
+    r = mc.model_check((0.0, 1.0, 1.5), terrain((1.5, 4.5, -1.0)), 5.5, PARAMS, budget=Budget(100, max_time_s=30.0),
+                       energy=False)
     assert r["verdict"] == mc.UNKNOWN and r["passes"][0]["stop"] == "nodes" and r["nodes"] <= 100
+    assert r["why"] == "nodes" and "0.5 deg pass ran out of nodes after" in r["statement"]
+
+
+def test_a_finer_pass_that_runs_out_leaves_the_coarse_verdict_unconfirmed_or_with_confirm_unknown():
+    step = terrain((1.5, 8.0, 1.2))
+    coarse = mc.model_check((0.0, 0.9, 1.5), step, 3.0, PARAMS, levels=(mc.COARSE,), budget=SMALL, energy=False)
+    budget = Budget(coarse["nodes"] + 10, max_time_s=30.0)   # the 0.25 deg pass gets 10 nodes
+    r = mc.model_check((0.0, 0.9, 1.5), step, 3.0, PARAMS, budget=budget, energy=False)
+    assert r["verdict"] == mc.NOT_TRAVERSABLE and r["holds_at"]["angle_deg"] == 0.5
+    assert r["holds_at"]["unconfirmed"] == {"angle_deg": 0.25, "stop": "nodes", "nodes": 10}
+    assert "the 0.25 deg pass ran out of nodes after 10 nodes" in r["statement"]
+    strict = mc.model_check((0.0, 0.9, 1.5), step, 3.0, PARAMS, budget=budget, energy=False, confirm=True)
+    assert strict["verdict"] == mc.UNKNOWN and strict["why"] == "nodes"
+    assert "no plan at 0.5 deg (exhausted)" in strict["statement"]
+
+
+def refine(apex, ground, goal_x, step_deg=0.1, max_hops=12):
+    """Every sequence of leg angles on a ``step_deg`` grid, no merging and no speed floor, ``max_hops`` deep:
+    the hop at which no apex is left (the tree is exhausted), or None. Fails if any sequence reaches the goal."""
+    k = math.ceil(PARAMS.max_leg_angle / math.radians(step_deg)) - 1
+    grid = np.arange(-k, k + 1) * math.radians(step_deg)
+    frontier = np.array([apex], dtype=float)
+    for hop in range(1, max_hops + 1):
+        r = step_batch(np.repeat(frontier, grid.size, axis=0), np.tile(grid, len(frontier)), ground, PARAMS)
+        assert not np.any(r.ok & (r.next_x >= goal_x)), f"a refined sequence of {hop} hops reaches the goal"
+        frontier = np.column_stack([r.next_x, r.next_z, r.next_xdot])[r.ok]
+        if len(frontier) == 0:
+            return hop
+    return None
+
+
+@pytest.mark.parametrize("apex, features, goal_x, hops", [
+    ((1.0, 1.0, 1.5), [(1.5, 3.4, -1.0)], 4.0, 2),    # a 1.9 m ditch, within the energy bound's 2.1 m reach
+    ((0.9, 0.9, 1.5), [(1.5, 8.0, 0.55)], 3.0, 10),   # a 0.55 m step, below the 0.63 m landing ceiling
+    ((1.0, 0.8, 1.5), [(1.5, 8.0, 0.45)], 3.0, 1),    # a 0.45 m step from a lower start (ceiling 0.53 m)
+])
+def test_grid_verdicts_refine_to_no_traversal_on_a_finer_grid_without_merging(apex, features, goal_x, hops):
+    ground = terrain(*features)
+    r = mc.model_check(apex, ground, goal_x, PARAMS, budget=SMALL, drake_check=False)
+    assert r["verdict"] == mc.NOT_TRAVERSABLE and r["holds_at"]["angle_deg"] == 0.25   # not proved: a grid verdict
+    assert refine(apex, ground, goal_x) == hops   # 0.1 deg, every apex kept: the tree dies out, no goal on the way
+
+
+def test_parallel_steps_give_the_same_search():
+    args = ((0.0, 1.0, 1.5), terrain((1.5, 1.8, -1.0)), 3.0, PARAMS)
+    one, all_cores = (mc.model_check(*args, budget=SMALL, drake_check=False, parallel=p) for p in (False, True))
+    assert one["witness"] == all_cores["witness"] and one["nodes"] == all_cores["nodes"]
 
 
 def test_a_start_past_the_goal_is_traversable_with_no_hops():
@@ -93,11 +156,25 @@ def test_bad_inputs_name_the_value():
 
 def test_cross_check_finds_a_crossed_case_called_not_traversable():
     oracle = {"cases": [{"id": "a", "verdict": mc.NOT_TRAVERSABLE}, {"id": "b", "verdict": mc.TRAVERSABLE},
-                        {"id": "c", "verdict": mc.UNKNOWN}]}
+                        {"id": "c", "verdict": mc.UNKNOWN}, {"id": "e", "verdict": mc.PROVED_NOT_TRAVERSABLE}]}
     evaluation = {"planners": {"step": {"cases": [{"id": "a", "success": True}, {"id": "b", "success": False},
-                                                  {"id": "c", "success": True}, {"id": "d", "success": True}]}}}
+                                                  {"id": "c", "success": True}, {"id": "d", "success": True},
+                                                  {"id": "e", "success": True}]}}}
     assert mcs.cross_check(oracle, evaluation) == {
-        "step": {"compared": 3, "crossed": 2, "contradicted": ["a"], "missed": ["b"]}}
+        "step": {"compared": 4, "crossed": 3, "contradicted": ["a", "e"], "missed": ["b"]}}
+
+
+def test_the_summary_counts_proved_and_grid_verdicts_as_not_traversable():
+    holds = {"angle_deg": 0.25, "merge_x": 0.005, "merge_xdot": 0.01, "min_speed": 0.1,
+             "coarser": [{"angle_deg": 0.5, "merge_x": 0.01, "merge_xdot": 0.01}]}
+    records = [{"verdict": mc.TRAVERSABLE, "time_s": 1.0}, {"verdict": mc.PROVED_NOT_TRAVERSABLE, "time_s": 0.0},
+               {"verdict": mc.NOT_TRAVERSABLE, "holds_at": holds, "time_s": 9.0},
+               {"verdict": mc.UNKNOWN, "why": "time", "time_s": 120.0}]
+    s = mcs.summarize(records)
+    assert (s["traversable"], s["not_traversable"], s["proved_not_traversable"], s["not_traversable_grid"],
+            s["unknown"]) == (1, 2, 1, 1, 1)
+    assert s["ceiling"] == 0.25 and s["ceiling_upper"] == 0.5 and s["unknown_why"] == {"time": 1}
+    assert s["grid_holds_at"] == {"0.5 deg / 1 cm x 1 cm/s, then 0.25 deg / 0.5 cm x 1 cm/s (apexes >= 0.1 m/s)": 1}
 
 
 def test_random_case_selection_is_seeded():
@@ -143,6 +220,7 @@ def test_two_processes_give_the_verdicts_of_one():
     (["--cases", "-3"], "--cases: must be an integer in .1, inf., got '-3'"),
     (["--jobs", "0"], "--jobs: must be an integer in .1, inf., got '0'"),
     (["--suite-edit"], r"cases\[0\]\.apex.*'z'"),
+    (["--parallel-steps", "--jobs", "2"], "--parallel-steps uses every core for one case"),
 ])
 def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message, example):
     doc = make_suite("ditch", 7, 1, speeds=(2.0,), heights=(0.9,)).to_dict()

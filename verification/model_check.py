@@ -6,45 +6,43 @@ ends with its apex at or past the goal (the evaluation's success test). It sees 
 perception window) and chooses every hop: it asks whether *any* plan exists, not whether a planner finds one.
 
 The state, and why merging is sound enough
-  The SLIP is conservative (lossless spring, massless leg, no impacts), so every apex of a run has the start's
-  energy E and its height is ``z = E/(m g) - xdot^2/(2 g)``: the apex state is (x, xdot). Apexes in the same
-  merge cell (``merge_x`` by ``merge_xdot``: 1 cm by 1 cm/s) are treated as one, represented by one arrival.
-  Away from event boundaries the step map is continuous, so the states of a cell have children within about
-  a cell of each other for every leg angle: 1 cm of x shifts every later foothold by 1 cm, and 1 cm/s of
-  speed moves a foothold by ~3 mm per 0.3 s of flight. That is the order of the angle grid's own foothold
-  spacing (0.5 deg moves a foothold by 4-8 mm), so merging costs little beyond the discretization itself.
-  It is still an approximation: a sequence whose feasible footholds form bands narrower than a cell (a knife
-  edge) can be lost. Hence the precise verdicts:
+  The SLIP is conservative, so an apex's height is ``z = E/(m g) - xdot^2/(2 g)``: its state is (x, xdot). Apexes
+  in one merge cell (``merge_x`` by ``merge_xdot``) are represented by one arrival. Away from event boundaries the
+  step map is continuous, so a cell's states have children within about a cell of each other (1 cm of x shifts
+  later footholds by 1 cm, 1 cm/s of speed ~3 mm per 0.3 s of flight), the order of the grid's foothold spacing
+  (0.5 deg: 4-8 mm). A knife edge narrower than a cell can be lost.
 
-  ``traversable``      a sequence of grid leg angles, commanded open-loop on the Drake simulator
-                       (``drakeslip.simulation``), reaches the goal with no failure: the ``witness``.
-  ``not-traversable``  every pass exhausted its reachable set without reaching the goal: no plan exists over
-                       this leg-angle grid with these merge tolerances (on the fast step map). A coarse pass
-                       (0.5 deg, 1 cm, 1 cm/s) is confirmed by a finer one (0.25 deg, 0.5 cm) before this is
-                       said (``LEVELS``).
-  ``unknown``          the node or time budget ran out, or Drake rejected every witness tried (or a rejected
-                       witness pruned the graph before it was exhausted).
+The verdicts (``verdict``, with a one-line ``statement`` of what it rests on)
+  ``traversable``             a sequence of grid leg angles reaches the goal with no failure when commanded
+                              open-loop on the Drake simulator (``drakeslip.simulation``): the ``witness``.
+  ``proved-not-traversable``  the energy argument (``verification.energy_bound``) shows that no run of the model
+                              reaches the goal, for any leg angles at all (``proof``); no search is run.
+  ``not-traversable``         a pass of ``LEVELS`` exhausted its reachable set: no plan over its leg-angle grid
+                              with its merge cells and apexes no slower than ``MIN_SPEED``, on the fast step map.
+                              ``holds_at`` is the finest such pass (0.25 deg, 5 mm x 1 cm/s, confirming the
+                              ``coarser`` 0.5 deg, 1 cm x 1 cm/s); ``unconfirmed`` names a finer pass that ran out
+                              of budget first, with no witness (none with ``confirm``: then the case is unknown).
+                              Finer grids with no merging find no plan either on the samples of the tests.
+  ``unknown``                 ``why``: "time" or "nodes" (a budget ran out), "witnesses" (Drake rejected
+                              ``max_witnesses``) or "pruned" (exhausted only after rejected witnesses pruned it).
 
 The search
   x grows on every successful hop (the forward speed stays positive), so the graph is acyclic and finite at a
-  given resolution. Hops to apexes slower than ``MIN_SPEED`` are dropped (0.1 m/s; the planners drop those
-  under 0.3 m/s, so no apex a planner's plan can pass through is excluded). There is no hop cap; a witness
-  longer than the evaluation's 60 hops would still count (its length is in ``hops``). Each iteration takes
-  a batch of nodes and expands them with every grid angle in one ``step_batch`` call. The queue pops first the
-  apexes reached with the fewest risky hops, among those the one farthest ahead (a goal is usually found in a
-  few hundred nodes when one exists), and a cell is represented by its arrival with the fewest risky hops. A hop
-  is risky when its foothold lies within ``EDGE_MARGIN`` of an edge, its next apex is slower than
-  ``CAREFUL_SPEED`` (the planners avoid both) or its foot clears the terrain at the apex by less than
-  ``TRIP_MARGIN``: there the two simulators can part (Drake checks the touchdown guard at its 2 ms step ends,
-  so a foot landing within a step's travel of a ditch edge can miss the ground; see
-  ``drakeslip.simulation.IntegratorConfig``). This orders the search and prunes nothing, so the verdicts keep
-  their meaning, but witnesses stay off knife edges where they can.
+  given resolution. Apexes slower than ``MIN_SPEED`` are dropped (0.1 m/s; the planners drop those under 0.3 m/s),
+  and so are those from which the energy argument shows the goal unreachable (``energy_bound.Coreach``: sound, no
+  plan is lost). There is no hop cap (a witness's length is in ``hops``). Each iteration expands a batch of nodes
+  with every grid angle in one ``step_batch`` call; each merge cell is expanded once, from its first arrival with
+  the least risk. A hop landing within ``EDGE_MARGIN`` of an edge, or whose foot clears the terrain at the apex by
+  less than ``TRIP_MARGIN``, is risky: there the two simulators can part (Drake checks guards at its 2 ms step
+  ends), and it adds ``EDGE_RISK``; a hop to an apex slower than ``CAREFUL_SPEED`` (the planners' floor) adds 1.
+  The queue pops the node farthest ahead, less ``RISK_COST`` m per unit of risk on its path: low-energy starts
+  often need slow hops to climb a step, and popping every safe apex first took 70k-200k nodes to find such
+  witnesses, against a few thousand. The order prunes nothing, so the verdicts keep their meaning.
 
 The Drake check
-  A witness is executed on Drake one continuous simulation long, and replanned on the fast map from Drake's
-  apex wherever that has drifted more than ``REPLAN_TOLERANCE`` from the prediction (``execute_on_drake``):
-  the backends differ by ~1e-8 m a hop and a slow gait amplifies that 4-10x a hop, as any open-loop SLIP gait
-  does. The simulation is deterministic, so the grid angles it commanded replay open-loop to the same run.
+  A witness is executed on Drake in one continuous simulation, replanned on the fast map from Drake's apex
+  wherever that drifted more than ``REPLAN_TOLERANCE`` from the prediction (``execute_on_drake``): the backends
+  differ by ~1e-8 m a hop and a slow gait amplifies that 4-10x a hop. The grid angles it ran replay open-loop.
 """
 from __future__ import annotations
 
@@ -60,16 +58,21 @@ from drakeslip.rollout import HOP_SECONDS, rollout
 
 from planners.base import Budget
 from planners.search.tree import clear_of_edges
+from verification.energy_bound import CellGraph, Coreach, prove_unreachable
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
+PROVED_NOT_TRAVERSABLE = "proved-not-traversable"
+NOT_TRAVERSABLE_VERDICTS = (NOT_TRAVERSABLE, PROVED_NOT_TRAVERSABLE)   # both: no plan (the ceiling excludes them)
 MIN_SPEED = 0.1        # m/s: slower apexes are dropped (the planners' floor is 0.3 m/s)
 BATCH_NODES = 32       # nodes expanded per step_batch call
 MAX_WITNESSES = 5      # Drake executions tried before a case is called unknown
 REPLAN_TOLERANCE = 1e-3  # m, m/s: Drake's apex this far from the predicted one is replanned from
 REPLAN_NODES = 50_000  # node budget of one replan during a Drake execution
-EDGE_MARGIN = 0.02     # m: hops landing this close to an edge are searched last (the planners drop them) ...
-CAREFUL_SPEED = 0.3    # m/s: ... and so are hops to apexes slower than this (the planners' floor) ...
-TRIP_MARGIN = 0.01     # m: ... and hops whose foot clears the terrain at the apex by less than this
+EDGE_MARGIN = 0.02     # m: a hop landing this close to an edge is risky (the planners drop them) ...
+TRIP_MARGIN = 0.01     # m: ... and so is one whose foot clears the terrain at the apex by less than this;
+CAREFUL_SPEED = 0.3    # m/s: a hop to an apex slower than this (the planners' floor) is slow
+RISK_COST = 0.3        # m of progress the queue takes off per unit of risk on a node's path: a slow hop is 1,
+EDGE_RISK = 2         # an edge or trip hop this many (Drake rejects those: a foot near an edge can miss it)
 DEFAULT_BUDGET = Budget(max_nodes=600_000, max_time_s=600.0)   # per case, all passes together
 
 
@@ -104,16 +107,18 @@ class _Pass:
     """Best-first search at one resolution. Nodes live in flat lists; node 0 is the start apex."""
 
     def __init__(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams, res: Resolution,
-                 min_speed: float):
+                 min_speed: float, alive=None, parallel: bool = False):
         self.terrain, self.goal_x, self.params, self.res, self.min_speed = terrain, goal_x, params, res, min_speed
+        self.alive, self.parallel = alive, parallel   # rows of apexes -> mask, or None; all cores per batch
         self.grid = res.angles(params)
         self.parent, self.angle, self.foothold, self.risk = [-1], [math.nan], [math.nan], [0]
         self.apex = [tuple(apex)]
         self.seen = {self._key(apex[0], apex[2]): 0}   # merge cell -> the node that represents it
-        self.queue = [(0, -apex[0], 0)]                # (risky hops, -x, node)
+        self.queue = [(_priority(0, apex[0]), 0)]
         self.goals: list = []       # goal nodes found, not yet handed out
         self.banned: set = set()    # nodes whose hop Drake rejected (and so their subtrees)
-        self.nodes = 0
+        self.expanded = bytearray(1)
+        self.nodes = self.pruned = 0
 
     def _key(self, x, xdot):
         return (round(x / self.res.merge_x), round(xdot / self.res.merge_xdot))
@@ -126,29 +131,23 @@ class _Pass:
         return True
 
     def _add(self, parent, angle, foothold, apex, risk) -> int:
-        self.parent.append(parent)
-        self.angle.append(angle)
-        self.foothold.append(foothold)
-        self.apex.append(apex)
-        self.risk.append(risk)
+        for column, value in ((self.parent, parent), (self.angle, angle), (self.foothold, foothold),
+                              (self.apex, apex), (self.risk, risk), (self.expanded, 0)):
+            column.append(value)
         return len(self.parent) - 1
 
     def _pop_batch(self, size: int) -> list:
         batch = []
         while self.queue and len(batch) < size:
-            node = heapq.heappop(self.queue)[2]
+            node = heapq.heappop(self.queue)[1]
             if self.seen.get(self._key(self.apex[node][0], self.apex[node][2])) == node and self._alive(node):
                 batch.append(node)   # else superseded by a safer arrival in its cell, or banned
+                self.expanded[node] = 1
         return batch
 
-    def _foot_clearance(self, apex: np.ndarray, angles: np.ndarray) -> np.ndarray:
-        """Height of the commanded foot above the terrain at each apex (rows of (x, z, xdot))."""
-        L0 = self.params.leg_length
-        return apex[:, 1] - L0 * np.cos(angles) - self.terrain.height_at(apex[:, 0] + L0 * np.sin(angles))
-
     def _pop_goal(self, safest_only: bool):
-        """The pending goal with the fewest risky hops, if it is alive and (``safest_only``) no node still in
-        the queue could lead to a goal with fewer."""
+        """The pending goal first in the queue order, if it is alive and (``safest_only``) no node still in the
+        queue comes before it."""
         while self.goals and not (safest_only and self.queue and self.queue[0][0] < self.goals[0][0]):
             g = heapq.heappop(self.goals)[1]
             if self._alive(g):
@@ -169,48 +168,71 @@ class _Pass:
                 g = self._pop_goal(safest_only=False)
                 return (g, None) if g is not None else (None, stop)
             batch = self._pop_batch(min(BATCH_NODES, max_nodes - self.nodes))
-            if not batch:
+            if batch:
+                self.nodes += len(batch)
+                self._expand(batch, n)
+
+    def _expand(self, batch: list, n: int) -> None:
+        """Every grid angle from every node of ``batch``: goals are kept, other children merged into cells."""
+        starts = np.array([self.apex[i] for i in batch])
+        r = step_batch(np.repeat(starts, n, axis=0), np.tile(self.grid, len(batch)), self.terrain, self.params,
+                       parallel=self.parallel)
+        goal = r.ok & (r.next_x >= self.goal_x)
+        keep = r.ok & ~goal & (r.next_xdot >= self.min_speed)
+        if self.alive is not None and keep.any():
+            k = np.flatnonzero(keep)
+            dead = ~self.alive(np.column_stack([r.next_x[k], r.next_z[k], r.next_xdot[k]]))
+            keep[k[dead]] = False
+            self.pruned += int(dead.sum())
+        idx = np.flatnonzero(goal | keep)
+        if idx.size == 0:
+            return
+        top, angle, L0 = starts[idx // n], self.grid[idx % n], self.params.leg_length   # foot clearance at apex:
+        foot = top[:, 1] - L0 * np.cos(angle) - self.terrain.height_at(top[:, 0] + L0 * np.sin(angle))
+        risky = (EDGE_RISK * (~clear_of_edges(self.terrain, r.touchdown_x[idx], EDGE_MARGIN) | (foot < TRIP_MARGIN))
+                 + (r.next_xdot[idx] < CAREFUL_SPEED))
+        risk = np.array([self.risk[b] for b in batch])[idx // n] + risky
+        kx = np.round(r.next_x[idx] / self.res.merge_x).astype(np.int64)
+        kv = np.round(r.next_xdot[idx] / self.res.merge_xdot).astype(np.int64)
+        # one child per merge cell: the first with the least risk (goals are all kept)
+        order = np.lexsort((np.arange(idx.size), risk, kv, kx, goal[idx]))
+        ks, vs, gs = kx[order], kv[order], goal[idx][order]
+        first = np.r_[True, (ks[1:] != ks[:-1]) | (vs[1:] != vs[:-1]) | gs[1:]]
+        chosen = np.sort(order[first])
+        i = idx[chosen]
+        rows = zip((i // n).tolist(), self.grid[i % n].tolist(), r.touchdown_x[i].tolist(), r.next_x[i].tolist(),
+                   r.next_z[i].tolist(), r.next_xdot[i].tolist(), risk[chosen].tolist(), goal[i].tolist(),
+                   kx[chosen].tolist(), kv[chosen].tolist())
+        for b, angle, foothold, x, z, xdot, rk, is_goal, key_x, key_v in rows:
+            if is_goal:
+                node = self._add(batch[b], angle, foothold, (x, z, xdot), rk)
+                heapq.heappush(self.goals, (_priority(rk, x), node))
                 continue
-            self.nodes += len(batch)
-            starts = np.array([self.apex[i] for i in batch])
-            r = step_batch(np.repeat(starts, n, axis=0), np.tile(self.grid, len(batch)), self.terrain, self.params)
-            goal = r.ok & (r.next_x >= self.goal_x)
-            keep = r.ok & ~goal & (r.next_xdot >= self.min_speed)
-            idx = np.flatnonzero(goal | keep)
-            risky = (~clear_of_edges(self.terrain, r.touchdown_x[idx], EDGE_MARGIN)
-                     | (r.next_xdot[idx] < CAREFUL_SPEED)
-                     | (self._foot_clearance(starts[idx // n], self.grid[idx % n]) < TRIP_MARGIN))
-            for i, bad in zip(idx.tolist(), risky.tolist()):
-                parent = batch[i // n]
-                apex = (float(r.next_x[i]), float(r.next_z[i]), float(r.next_xdot[i]))
-                risk = self.risk[parent] + bad
-                if goal[i]:
-                    node = self._add(parent, float(self.grid[i % n]), float(r.touchdown_x[i]), apex, risk)
-                    heapq.heappush(self.goals, (risk, node))
-                    continue
-                key = self._key(apex[0], apex[2])
-                held = self.seen.get(key)
-                if held is not None and self.risk[held] <= risk:
-                    continue
-                node = self._add(parent, float(self.grid[i % n]), float(r.touchdown_x[i]), apex, risk)
-                self.seen[key] = node
-                heapq.heappush(self.queue, (risk, -apex[0], node))
+            held = self.seen.get((key_x, key_v))
+            if held is not None and (self.risk[held] <= rk or self.expanded[held]):
+                continue
+            node = self._add(batch[b], angle, foothold, (x, z, xdot), rk)
+            self.seen[(key_x, key_v)] = node
+            heapq.heappush(self.queue, (_priority(rk, x), node))
 
     def path(self, node: int) -> list[int]:
         """Nodes from the first hop's child to ``node``."""
         out = []
         while node > 0:
-            out.append(node)
-            node = self.parent[node]
-        return out[::-1]
+            out, node = [node, *out], self.parent[node]
+        return out
 
     def witness(self, node: int) -> dict:
         p = self.path(node)
         return {"leg_angles": [self.angle[i] for i in p], "footholds": [self.foothold[i] for i in p],
                 "apexes": [list(self.apex[i]) for i in p]}
 
-    def ban(self, node: int) -> None:
+    def ban(self, node: int) -> None:   # drop the node and its subtree (Drake rejected its hop)
         self.banned.add(node)
+
+
+def _priority(risk: int, x: float) -> float:   # queue order, smallest first: farthest ahead, less the risk cost
+    return RISK_COST * risk - x
 
 
 def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float, terrain: Terrain,
@@ -255,14 +277,18 @@ def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float,
 
 def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, levels=LEVELS,
                 budget: Budget = DEFAULT_BUDGET, min_speed: float = MIN_SPEED, drake_check: bool = True,
-                max_witnesses: int = MAX_WITNESSES) -> dict:
-    """The verdict for one start: {"verdict", "witness", "nodes", "time_s", "hops", "passes", "drake"}.
+                max_witnesses: int = MAX_WITNESSES, energy: bool = True, confirm: bool = False,
+                parallel: bool = False) -> dict:
+    """The verdict for one start: {"verdict", "statement", "holds_at", "proof", "why", "witness", "nodes",
+    "pruned", "time_s", "hops", "passes", "drake"} (module docstring).
 
-    ``levels`` are tried in order; each later one runs only if the one before exhausted its graph, and the
-    case is not traversable only if the last one exhausts too. ``budget`` bounds the node expansions and the
+    ``energy``: settle the case by the energy argument first where it can, and drop the apexes it shows dead.
+    ``levels`` are tried in order, each later one only if the one before exhausted its graph. The case is not
+    traversable at the finest level that exhausted if the next ran out of budget without a witness (or, with
+    ``confirm``, only if every level exhausted; ``holds_at`` says which). ``budget`` bounds the node expansions and the
     seconds of all passes together (Drake executions use up the seconds too, but one is never cut short;
     replans inside them do not count as nodes). ``drake_check=False`` accepts the first witness on the fast
-    step map alone (diagnosis only)."""
+    step map alone (diagnosis only). ``parallel`` spreads each batch of hops over all cores (the same results)."""
     params = params or SlipParams()
     apex = ApexState(*map(float, apex)).validate()
     if not isinstance(budget, Budget):
@@ -276,15 +302,24 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
     step_batch(apex, [0.0], terrain, params)  # checks the apex is above the terrain; compiles the kernel once
     t0 = time.perf_counter()
     deadline = t0 + budget.max_time_s
-    result = {"verdict": UNKNOWN, "witness": None, "nodes": 0, "time_s": 0.0, "hops": 0, "passes": [],
-              "drake": []}
+    result = {"verdict": UNKNOWN, "statement": "", "holds_at": None, "proof": None, "why": None,
+              "witness": None, "nodes": 0, "pruned": 0, "time_s": 0.0, "hops": 0, "passes": [], "drake": []}
     if apex.x >= goal_x:
-        result.update(verdict=TRAVERSABLE, witness={"leg_angles": [], "footholds": [], "apexes": []})
+        result.update(verdict=TRAVERSABLE, witness={"leg_angles": [], "footholds": [], "apexes": []},
+                      statement="the start is at or past the goal")
         return result
+    alive = None
+    if energy:
+        graph = CellGraph(apex, terrain, goal_x, params)
+        proof = prove_unreachable(apex, terrain, goal_x, params, graph=graph)
+        if proof is not None:
+            result.update(verdict=PROVED_NOT_TRAVERSABLE, proof=proof, statement="proved: " + proof["statement"],
+                          time_s=time.perf_counter() - t0)
+            return result
+        alive = Coreach(graph).alive
     for res in levels:
-        t_pass = time.perf_counter()
-        search = _Pass(apex, terrain, goal_x, params, res, min_speed)
-        stop = None
+        t_pass, tried = time.perf_counter(), len(result["drake"])
+        search, stop = _Pass(apex, terrain, goal_x, params, res, min_speed, alive, parallel), None
         while True:
             node, stop = search.next_goal(budget.max_nodes - result["nodes"], deadline)
             if node is None:
@@ -294,7 +329,7 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
                 result.update(verdict=TRAVERSABLE, witness=witness)
                 break
             run = execute_on_drake(apex, witness, lambda a, res=res: _replan(a, terrain, goal_x, params, res,
-                                                                             min_speed, deadline),
+                                                                             min_speed, deadline, alive),
                                    goal_x, terrain, params)
             result["drake"].append({k: run[k] for k in ("ok", "replans", "hops_done", "failure", "final_x",
                                                         "drift_hop")})
@@ -309,22 +344,58 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
             if len(result["drake"]) >= max_witnesses:
                 stop = "witnesses"
                 break
+        if stop == "exhausted" and search.banned:
+            stop = "pruned"   # a graph pruned by rejected witnesses proves nothing when it exhausts
         result["nodes"] += search.nodes
+        result["pruned"] += search.pruned
         result["passes"].append({**asdict(res), "stop": "goal" if result["verdict"] == TRAVERSABLE else stop,
                                  "nodes": search.nodes, "states": len(search.seen),
-                                 "time_s": time.perf_counter() - t_pass})
-        if result["verdict"] == TRAVERSABLE or stop != "exhausted" or search.banned:
-            break  # found; out of budget; or a pruned graph, whose exhaustion proves nothing
-    else:
-        result["verdict"] = NOT_TRAVERSABLE
+                                 "witnesses": len(result["drake"]) - tried, "time_s": time.perf_counter() - t_pass})
+        if result["verdict"] == TRAVERSABLE or stop != "exhausted":
+            break
+    last, done = result["passes"][-1], [p for p in result["passes"] if p["stop"] == "exhausted"]
+    if result["verdict"] == UNKNOWN and done and (last["stop"] == "exhausted" or (
+            not confirm and last["stop"] in ("time", "nodes") and not last["witnesses"])):
+        holds = [{k: p[k] for k in ("angle_deg", "merge_x", "merge_xdot")} for p in done]
+        result.update(verdict=NOT_TRAVERSABLE, holds_at={**holds[-1], "min_speed": min_speed, "coarser": holds[:-1]})
+        if last["stop"] != "exhausted":   # a finer pass ran out before it could confirm
+            result["holds_at"]["unconfirmed"] = {k: last[k] for k in ("angle_deg", "stop", "nodes")}
     if result["witness"] is not None:
         result["hops"] = len(result["witness"]["leg_angles"])
+    if result["verdict"] == UNKNOWN:
+        result["why"] = last["stop"]
+    result["statement"] = _statement(result, drake_check)
     result["time_s"] = time.perf_counter() - t0
     return result
 
 
-def _replan(apex, terrain, goal_x, params, res, min_speed, deadline) -> dict | None:
+def resolution_text(holds_at: dict) -> str:
+    """'0.5 deg / 1 cm x 1 cm/s, then 0.25 deg / 0.5 cm x 1 cm/s (apexes >= 0.1 m/s)' for a ``holds_at``."""
+    passes = [*holds_at.get("coarser", []), holds_at]
+    return ", then ".join(f"{r['angle_deg']:g} deg / {100 * r['merge_x']:g} cm x {100 * r['merge_xdot']:g} cm/s"
+                          for r in passes) + f" (apexes >= {holds_at['min_speed']:g} m/s)"
+
+
+def _statement(r: dict, drake_check: bool) -> str:
+    """One line: what the verdict rests on."""
+    passes = r["passes"]
+    if r["verdict"] == TRAVERSABLE:
+        where = "executed on Drake" if drake_check else "on the fast step map only (not checked on Drake)"
+        return f"a {r['hops']}-hop witness on the {passes[-1]['angle_deg']:g} deg grid, {where}"
+    if r["verdict"] == NOT_TRAVERSABLE:
+        late = r["holds_at"].get("unconfirmed")
+        return (f"no plan over the leg-angle grid(s) {resolution_text(r['holds_at'])}: the reachable apexes were "
+                f"exhausted on the fast step map" + (f"; the {late['angle_deg']:g} deg pass ran out of {late['stop']}"
+                                                     f" after {late['nodes']} nodes" if late else ""))
+    last, done = passes[-1], ", ".join(f"{p['angle_deg']:g} deg" for p in passes if p["stop"] == "exhausted")
+    why = {"witnesses": f"Drake rejected {len(r['drake'])} of its witnesses",
+           "pruned": "exhausted only after Drake-rejected witnesses pruned it"}.get(r["why"], f"ran out of {r['why']}")
+    return (f"the {last['angle_deg']:g} deg pass {why} after {last['nodes']} nodes"
+            + (f"; no plan at {done} (exhausted)" if done else ""))
+
+
+def _replan(apex, terrain, goal_x, params, res, min_speed, deadline, alive=None) -> dict | None:
     """A fresh fast-map witness from ``apex`` (a Drake execution's drifted apex), or None."""
-    search = _Pass(apex, terrain, goal_x, params, res, min_speed)
+    search = _Pass(apex, terrain, goal_x, params, res, min_speed, alive)
     node, _ = search.next_goal(REPLAN_NODES, deadline)
     return None if node is None else search.witness(node)

@@ -15,9 +15,10 @@ from drakeslip.jobs.runner import JsonLinesStore, run
 from planners.base import Budget
 from planners.formats.suite import Case, Suite
 from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, MIN_SPEED, NOT_TRAVERSABLE,
-                                      TRAVERSABLE, UNKNOWN, model_check)
+                                      NOT_TRAVERSABLE_VERDICTS, PROVED_NOT_TRAVERSABLE, TRAVERSABLE, UNKNOWN,
+                                      model_check, resolution_text)
 
-CACHE_VERSION = 1      # bump when a change invalidates cached verdicts
+CACHE_VERSION = 2      # bump when a change invalidates cached verdicts (2: proved verdicts, statements)
 
 
 def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = None, ids=None) -> list[Case]:
@@ -39,9 +40,9 @@ def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = No
     return [suite.cases[i] for i in picked]
 
 
-def _config(levels, min_speed, drake_check, max_witnesses) -> dict:
+def _config(levels, min_speed, drake_check, max_witnesses, energy=True, confirm=False) -> dict:
     return {"levels": [asdict(r) for r in levels], "min_speed": min_speed, "drake_check": drake_check,
-            "max_witnesses": max_witnesses, "version": CACHE_VERSION}
+            "max_witnesses": max_witnesses, "energy": energy, "confirm": confirm, "version": CACHE_VERSION}
 
 
 def case_key(case: Case, goal_x: float, friction: float, config: dict) -> str:
@@ -52,10 +53,24 @@ def case_key(case: Case, goal_x: float, friction: float, config: dict) -> str:
 
 
 def summarize(records: list) -> dict:
+    """Counts by verdict: ``not_traversable`` is both kinds, ``proved_not_traversable`` (the energy argument, any
+    leg angles) plus ``not_traversable_grid`` (exhausted grids), the latter also by ``holds_at`` resolution;
+    ``unknown_why`` counts the unknowns by reason."""
     n = len(records)
-    count = {v: sum(r["verdict"] == v for r in records) for v in (TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN)}
-    return {"cases": n, "traversable": count[TRAVERSABLE], "not_traversable": count[NOT_TRAVERSABLE],
-            "unknown": count[UNKNOWN], "decided_rate": (n - count[UNKNOWN]) / n if n else 0.0,
+    count = {v: sum(r["verdict"] == v for r in records)
+             for v in (TRAVERSABLE, NOT_TRAVERSABLE, PROVED_NOT_TRAVERSABLE, UNKNOWN)}
+    resolutions, why = {}, {}
+    for r in records:
+        if r["verdict"] == NOT_TRAVERSABLE:
+            text = resolution_text(r["holds_at"])
+            resolutions[text] = resolutions.get(text, 0) + 1
+        elif r["verdict"] == UNKNOWN:
+            why[r.get("why")] = why.get(r.get("why"), 0) + 1
+    return {"cases": n, "traversable": count[TRAVERSABLE],
+            "not_traversable": count[NOT_TRAVERSABLE] + count[PROVED_NOT_TRAVERSABLE],
+            "proved_not_traversable": count[PROVED_NOT_TRAVERSABLE], "not_traversable_grid": count[NOT_TRAVERSABLE],
+            "grid_holds_at": resolutions, "unknown": count[UNKNOWN], "unknown_why": why,
+            "decided_rate": (n - count[UNKNOWN]) / n if n else 0.0,
             # the suite's best possible success rate; with unknowns it lies between ceiling and ceiling_upper
             "ceiling": count[TRAVERSABLE] / n if n else 0.0,
             "ceiling_upper": (count[TRAVERSABLE] + count[UNKNOWN]) / n if n else 0.0,
@@ -64,25 +79,27 @@ def summarize(records: list) -> dict:
 
 def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
                 levels=LEVELS, min_speed: float = MIN_SPEED, drake_check: bool = True,
-                max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None) -> dict:
+                max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None, energy: bool = True,
+                confirm: bool = False, parallel: bool = False) -> dict:
     """Run the oracle on ``cases`` of ``suite`` on ``executor`` (``drakeslip.jobs.executors``; default this
     process). Each finished case is appended to ``cache_path`` (JSON lines) and reused by a later run with the
     same settings; a cached ``unknown`` is rerun when the budget grew. The time budget is wall-clock per case, so
-    an executor should run no more cases at a time than it has cores."""
+    an executor should run no more cases at a time than it has cores (``parallel``: one case at a time, each
+    spreading its hops over every core)."""
     from tqdm import tqdm
 
-    config = _config(levels, min_speed, drake_check, max_witnesses)
+    config = _config(levels, min_speed, drake_check, max_witnesses, energy, confirm)
     params = SlipParams(friction=suite.friction)
     keys = {c.id: case_key(c, suite.goal_x, suite.friction, config) for c in cases}
     first = {}
     for c in cases:  # identical cases ask the same question: checked once
         first.setdefault(keys[c.id], c)
-    tasks = [(key, (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check, max_witnesses))
-             for key, c in first.items()]
+    tasks = [(key, (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
+                    energy, confirm, parallel)) for key, c in first.items()]
 
-    def reuse(held):  # a cached "unknown" is rerun when the budget grew
-        return held["verdict"] != UNKNOWN or (held["budget"]["max_nodes"] >= budget.max_nodes
-                                              and held["budget"]["max_time_s"] >= budget.max_time_s)
+    def reuse(held):  # a cached "unknown", or an unconfirmed "not-traversable", is rerun when the budget grew
+        return (held["verdict"] != UNKNOWN and not (held.get("holds_at") or {}).get("unconfirmed")) or (
+            held["budget"]["max_nodes"] >= budget.max_nodes and held["budget"]["max_time_s"] >= budget.max_time_s)
 
     records = {}
     store = JsonLinesStore(cache_path) if cache_path else None
@@ -97,21 +114,24 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
             "cases": ordered, "summary": summarize(ordered)}
 
 
-def _checked(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses) -> dict:
+def _checked(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
+             energy=True, confirm=False, parallel=False) -> dict:
     """One case's verdict with the budget it had (a task of ``check_suite``)."""
-    return {**model_check(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses),
-            "budget": asdict(budget)}
+    return {**model_check(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
+                          energy, confirm, parallel), "budget": asdict(budget)}
 
 
 def cross_check(oracle: dict, evaluation: dict) -> dict:
     """Soundness against planners: for each planner of an ``examples/evaluate.py`` results dict, the cases it
     crossed that the oracle calls not traversable (``contradicted``: must be empty) and the cases it failed
-    that the oracle calls traversable (``missed``). Only cases both files hold are compared."""
+    that the oracle calls traversable (``missed``). Only cases both files hold are compared; a case proved not
+    traversable counts as not traversable."""
     verdicts = {c["id"]: c["verdict"] for c in oracle["cases"]}
     out = {}
     for name, block in evaluation["planners"].items():
         cases = [c for c in block["cases"] if c["id"] in verdicts]
         out[name] = {"compared": len(cases), "crossed": sum(c["success"] for c in cases),
-                     "contradicted": [c["id"] for c in cases if c["success"] and verdicts[c["id"]] == NOT_TRAVERSABLE],
+                     "contradicted": [c["id"] for c in cases
+                                      if c["success"] and verdicts[c["id"]] in NOT_TRAVERSABLE_VERDICTS],
                      "missed": [c["id"] for c in cases if not c["success"] and verdicts[c["id"]] == TRAVERSABLE]}
     return out

@@ -78,11 +78,11 @@ finite = number()
 probability = number(0.0, 1.0)
 
 
-def numbers(count: int, each=finite):
-    """An argument type: ``count`` comma-separated numbers, each checked by ``each``."""
+def numbers(count: int | None, each=finite):
+    """An argument type: ``count`` (None: one or more) comma-separated numbers, each checked by ``each``."""
     def parse(text: str) -> tuple:
         parts = text.split(",")
-        if len(parts) != count:
+        if count is not None and len(parts) != count:
             raise argparse.ArgumentTypeError(f"must be {count} comma-separated numbers, got {text!r}")
         return tuple(each(p) for p in parts)
     return parse
