@@ -10,6 +10,9 @@ from drakeslip.params import check_number
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
 WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
 WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells)
+# Heights that differ by no more than this are one level: a sensed height map is noisy, while the terrains here
+# change level by 5 cm or more (a step) or 1 m (a ditch).
+LEVEL_TOLERANCE = 0.02
 
 
 class Terrain:
@@ -48,6 +51,10 @@ class Terrain:
     def height_at(self, x):
         h = self.heights[self.index(x)]
         return float(h) if np.ndim(h) == 0 else h
+
+    def same_level(self, a, b):
+        """Whether the terrain at ``a`` and at ``b`` is one level (within LEVEL_TOLERANCE), elementwise."""
+        return np.abs(self.height_at(a) - self.height_at(b)) <= LEVEL_TOLERANCE
 
     def is_ditch_at(self, x) -> bool:
         return bool(self.height_at(x) <= self.ditch_height)

@@ -24,8 +24,19 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip.noise import PROFILES, profile
 from planners.closed_loop import ClosedLoopConfig
-from planners.registry import check_label, label_options
+from planners.registry import check_label, label_options, replanning_period
+
+
+def noise_profile(text: str):
+    """--noise: a profile by name (or NAME*K)."""
+    import argparse
+
+    try:
+        return profile(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def main(argv=None) -> int:
@@ -43,8 +54,12 @@ def main(argv=None) -> int:
                     help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
     ap.add_argument("--controller", type=cli.input_file, default=None,
                     help="controller weights (default: the committed drakeslip/weights/controller.pt)")
-    ap.add_argument("--executed", type=cli.positive_int, default=ClosedLoopConfig.executed_per_plan,
-                    help="footholds of each plan executed before replanning")
+    ap.add_argument("--executed", type=cli.positive_int, default=None,
+                    help="footholds of each plan executed before replanning (default: the label's preset's "
+                         f"period, else {ClosedLoopConfig.executed_per_plan}, the paper's)")
+    ap.add_argument("--noise", type=noise_profile, default="none",
+                    help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--backend", choices=("drake", "fast"), default="drake",
                     help="what executes the plans: the Drake simulator (the protocol) or the fast step map")
     ap.add_argument("--mlp-only", action="store_true",
@@ -64,7 +79,10 @@ def main(argv=None) -> int:
     if args.baseline is not None and args.baseline not in labels:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {labels}")
     executor = cli.executor(args)
-    config = ClosedLoopConfig(executed_per_plan=args.executed, backend=args.backend, refine=not args.mlp_only)
+    configs = {label: ClosedLoopConfig(executed_per_plan=args.executed or replanning_period(label)
+                                       or ClosedLoopConfig.executed_per_plan, backend=args.backend,
+                                       refine=not args.mlp_only, noise=args.noise, seed=args.seed)
+               for label in labels}
 
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json
@@ -75,7 +93,7 @@ def main(argv=None) -> int:
     specs = {label: options.get(label) for label in labels}
     try:
         suite = load_suite(args.suite)
-        prepare(worker_setup(specs, args.controller, config.refine))
+        prepare(worker_setup(specs, args.controller, not args.mlp_only))
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))
     cli.announce(argv)
@@ -84,7 +102,7 @@ def main(argv=None) -> int:
         remove(cache)
     results = evaluate(suite, specs, n_cases=args.cases,
                        every=args.every, executor=executor, cache_path=cache, controller_path=args.controller,
-                       config=config, progress=not args.quiet)
+                       config=configs, progress=not args.quiet)
     write_json(args.out, results)
     print(table(results))
     if args.baseline:

@@ -1,15 +1,26 @@
 """The receding-horizon loop (paper, section VII): plan on the perception window, execute the first footholds of
 the plan with the controller, replan from the apex reached; repeat until the body passes the goal, a failure, no
-plan, or the hop cap."""
+plan, or the hop cap.
+
+Under a noise profile (``drakeslip.noise``) the planner and the controller are told a noisy apex and see a noisy
+terrain, the leg reaches a noisy angle, and the hops run on a hopper whose stiffness, mass and friction differ
+from the model's; the true apex evolves on the true terrain. Every draw comes from a generator seeded by the
+config's seed and the case's id, so a case gives the same result in any process and any order.
+"""
 from __future__ import annotations
 
-from dataclasses import dataclass
+import zlib
+from dataclasses import dataclass, field
+
+import numpy as np
 
 from drakeslip import ApexState, SlipParams
+from drakeslip.noise import NoiseProfile
 from drakeslip.rollout import BACKENDS, rollout
 
 EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
 MAX_HOPS = 60           # a case that has not reached the goal after this many hops fails ("hop cap")
+GOAL_SIGMAS = 5.0       # under state noise the planners aim this many standard deviations of x past the goal
 
 
 @dataclass(frozen=True)
@@ -17,12 +28,18 @@ class ClosedLoopConfig:
     """``executed_per_plan`` footholds of each plan are executed before replanning; ``backend="drake"`` executes on
     the Drake hybrid simulator (the protocol), ``"fast"`` on the fast step map (quick diagnosis: is a failure the
     planner's or the model mismatch's?); ``refine`` switches the controller's Newton polish (False: the MLP alone,
-    as in the paper, an ablation)."""
+    as in the paper, an ablation); ``noise`` the noise profile and ``seed`` the seed of its draws."""
 
     executed_per_plan: int = EXECUTED_PER_PLAN
     max_hops: int = MAX_HOPS
     backend: str = "drake"
     refine: bool = True
+    noise: NoiseProfile = field(default_factory=NoiseProfile)
+    seed: int = 0
+
+    def to_dict(self) -> dict:
+        return {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
+                "refine": self.refine, "noise": self.noise.to_dict(), "seed": self.seed}
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -36,20 +53,47 @@ class ClosedLoopConfig:
 def run_case(planner, controller, case, goal_x: float, params: SlipParams,
              config: ClosedLoopConfig = ClosedLoopConfig()) -> dict:
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the receding-horizon loop; returns
-    {"id", "success", "failure", "final_x", "plans"}, one record per planning call in "plans"."""
+    {"id", "success", "failure", "final_x", "plans"}, one record per planning call in "plans" (with the apex the
+    planner was told in "seen_apex" when there is state noise)."""
     apex, terrain = ApexState(*map(float, case.apex)), case.terrain
+    noise, rng = config.noise, np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
+    # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
+    aim_x = goal_x + GOAL_SIGMAS * noise.apex[0]
+    executed = params if noise.silent else noise.executed_params(params, rng)
     plans, hops, failure = [], 0, None
     while True:
-        plan = planner.plan(apex, terrain.perceived(apex.x), goal_x, params)
+        k = config.executed_per_plan
+        apex_errors = None if noise.silent else noise.apex_errors(rng, k)
+        angle_errors = None if noise.silent else noise.angle_errors(rng, k)
+        seen = apex if noise.silent else ApexState(*(np.asarray(apex) + apex_errors[0]))
+        window = terrain.perceived(seen.x)
+        sensed = window if noise.silent else noise.perceived(window, rng)
+        try:
+            plan = planner.plan(seen, sensed, aim_x, params)
+        except ValueError as refusal:  # a noisy apex the planner cannot start from (below the ground it sees)
+            if noise.silent:
+                raise
+            plans.append({"success": False, "message": str(refusal), "ode_calls": 0, "t_plan_s": 0.0,
+                          "nodes_expanded": 0, "target_x": goal_x, "footholds": [], "apex": list(apex),
+                          "seen_apex": list(seen)})
+            failure, final_x = "NO_PLAN", apex.x
+            break
         record = plan.summary()
         record["apex"] = list(apex)
+        if not noise.silent:
+            record["seen_apex"] = list(seen)
         plans.append(record)
         if not plan.success:
             failure = "NO_PLAN"
             final_x = apex.x
             break
-        footholds = plan.footholds[:config.executed_per_plan].tolist()
-        run = rollout(apex, terrain, params, footholds=footholds, controller=controller, backend=config.backend)
+        footholds = plan.footholds[:k].tolist()
+        if not footholds:  # the robot believes it is past the goal already: it stops where it is
+            failure, final_x = (None if apex.x >= goal_x else "STOPPED_SHORT"), apex.x
+            break
+        run = rollout(apex, terrain, executed, footholds=footholds, controller=controller, backend=config.backend,
+                      apex_errors=apex_errors, angle_errors=angle_errors,
+                      sensed_terrain=None if noise.silent else sensed)
         record["executed"] = [float(x) for x in run.footholds]
         hops += len(footholds)
         if run.failure is not None:

@@ -33,7 +33,20 @@ PRESETS = {
     "lstm-guided@paper": {"weights": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path"},
     # the default search sampling the expert model instead (the trajectory optimizer's best seed)
     "lstm-guided@expert": {"weights": str(EXPERT_WEIGHTS)},
+    # children that survive realistic noise and leave the hopper where it can go on (planners/search/robust.py),
+    # replanning at every apex; the sampled search falls back on the whole grid before giving up
+    "step@robust": {"robustness": {}},
+    "lstm-guided@robust": {"robustness": {}, "grid_fallback": True},
 }
+
+
+# The replanning period a preset is meant to run with (footholds executed per plan), where it is not the paper's.
+REPLANNING = {"step@robust": 1, "lstm-guided@robust": 1}
+
+
+def replanning_period(label: str) -> int | None:
+    """Footholds executed before replanning that ``label`` is meant to run with, None for the evaluation's own."""
+    return REPLANNING.get(label)
 
 
 def planner_name(label: str) -> str:

@@ -67,10 +67,11 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert run.returncode == 0, run.stderr
     assert "Success %" in run.stdout and "step" in run.stdout
     results = json.loads(out.read_text())
-    assert set(results) == {"suite", "config", "options", "planners"}
+    assert set(results) == {"suite", "options", "planners"}
     assert set(results["planners"]) == {"heuristic", "step"}
     for block in results["planners"].values():
-        assert set(block) == {"success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
+        assert block["config"] == ClosedLoopConfig().to_dict()   # the protocol: noiseless, the paper's period
+        assert set(block) == {"config", "success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
                               "t_plan_mean_s", "t_plan_median_s", "nodes_expanded_mean", "footholds_mean",
                               "time_limited_calls", "cases"}
         assert block["success_interval"][0] <= block["success_rate"] <= block["success_interval"][1]

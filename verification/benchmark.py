@@ -40,7 +40,10 @@ def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfi
     """Identifies a (suite, planner, options, closed loop, weights) setup, so cached cases are reused only for
     the same setup: retraining the controller or any weights file the planner reads invalidates them."""
     files = {name: digest(path) for name, path in files_read(label, options).items()}
-    blob = json.dumps([suite.goal_x, suite.friction, label, options, config.__dict__,
+    loop = config.to_dict()
+    if config.noise.silent:  # a noiseless run does not depend on the noise's seed: its cached cases stay valid
+        del loop["noise"], loop["seed"]
+    blob = json.dumps([suite.goal_x, suite.friction, label, options, loop,
                        digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
@@ -83,21 +86,26 @@ def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
 
 
 def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=None, cache_path=None,
-             controller_path=None, config: ClosedLoopConfig = ClosedLoopConfig(), progress: bool = True,
+             controller_path=None, config: ClosedLoopConfig | dict = ClosedLoopConfig(), progress: bool = True,
              every: int = 1) -> dict:
-    """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``.
-    Finished cases go to ``cache_path`` (JSON lines) as they complete and are reused when the run is started
-    again. ``executor``: where the cases run (``drakeslip.jobs.executors``; default this process)."""
+    """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``, in
+    the closed loop ``config`` describes (one for all, or a dict by label, e.g. for each preset's replanning
+    period). Finished cases go to ``cache_path`` (JSON lines) as they complete and are reused when the run is
+    started again. ``executor``: where the cases run (``drakeslip.jobs.executors``; default this process)."""
     from tqdm import tqdm
 
     cases = select(suite, n_cases, every)
-    setup = worker_setup(specs, controller_path, config.refine)
+    configs = config if isinstance(config, dict) else {label: config for label in specs}
+    if {c.refine for c in configs.values()} != {next(iter(configs.values())).refine}:
+        raise ValueError("every planner of a run shares the controller: give them all the same refine")
+    setup = worker_setup(specs, controller_path, next(iter(configs.values())).refine)
     specs = setup[1][0]
     prepare(setup)  # in this process first: a bad option or weights file fails before any case runs
-    setups = {label: fingerprint(suite, label, options, config, controller_path) for label, options in specs.items()}
+    setups = {label: fingerprint(suite, label, options, configs[label], controller_path)
+              for label, options in specs.items()}
     owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
     tasks = [(key, (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}, suite.goal_x,
-                    suite.friction, config)) for key, (label, c) in owner.items()]
+                    suite.friction, configs[label])) for key, (label, c) in owner.items()]
     store = JsonLinesStore(cache_path) if cache_path else None
     done = {label: {} for label in specs}
     with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
@@ -106,5 +114,6 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
             done[label][case.id] = result
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
-    return {"suite": suite.name, "config": dict(config.__dict__), "options": specs,
-            "planners": {label: summarize([done[label][c.id] for c in cases]) for label in specs}}
+    return {"suite": suite.name, "options": specs,
+            "planners": {label: {"config": configs[label].to_dict(), **summarize([done[label][c.id] for c in cases])}
+                         for label in specs}}

@@ -1,38 +1,49 @@
-"""How likely is a plan to work when the start and the controller are not exact? Monte Carlo over noise.
+"""How likely is a plan to work on a noisy robot? Monte Carlo over a noise profile (``drakeslip.noise``).
 
-Each draw executes the plan's footholds through the step-length controller (as the receding-horizon
-evaluation does) from a perturbed start apex, adding Gaussian noise to every commanded leg angle: the model
-of controller error (the trained controller itself lands within micrometres, so this error stands for the
-real robot's actuation and sensing). A draw succeeds when it reaches the apex after the last foothold with
-no failure. The fast backend runs all draws together, one ``step_batch`` call per hop; ``confirm_on_drake``
-reruns the first draws, the same noise, on the Drake simulator and reports where the backends disagree.
+Each draw executes the plan's footholds through the step-length controller, as the receding-horizon loop would
+without replanning, on a robot drawn from the profile: the plan was made from an apex estimate, so the true start
+is off by the state-estimation error; at every apex the controller is told the apex with a new error and aims on
+a terrain map with the perception errors; the leg reaches the commanded angle with the actuation error; and the
+hops run on a hopper with this draw's stiffness, mass and friction. A draw succeeds when it completes the plan's
+first ``hops`` hops (all of them by default) with no failure. The same seed gives the same draws and outcomes;
+``confirm_on_drake`` reruns the first draws, with the same errors, on the Drake simulator.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from drakeslip import FailureMode, StepLengthController
-from drakeslip.rollout import BACKENDS, rollouts
+from drakeslip.noise import NoiseProfile
+from drakeslip.rollout import BACKENDS, rollout
 
 from planners.formats.plan import PlanRecord
 from verification.report import wilson_interval
 
 
 @dataclass
+class Draw:
+    """One robot of the Monte Carlo: its start, its hopper, the map it aims on and its errors at each hop."""
+
+    start: np.ndarray
+    params: object
+    sensed: object
+    apex_errors: np.ndarray
+    angle_errors: np.ndarray
+
+
+@dataclass
 class Robustness:
-    """The draws (``start`` (n, 3) apexes, ``angle_errors`` (n, hops) radians) and their outcomes:
-    ``failures`` FailureMode codes (0 = success) and ``failed_hops`` (-1 = success)."""
+    """The draws and their outcomes: ``failures`` FailureMode codes (0 = success) and ``failed_hops`` (-1 =
+    success) over the plan's first ``hops`` hops."""
 
     record: PlanRecord
-    apex_noise: tuple
-    angle_noise: float
+    noise: NoiseProfile
     seed: int
     backend: str
-    start: np.ndarray
-    angle_errors: np.ndarray
+    hops: int
+    draws: list
     failures: np.ndarray
     failed_hops: np.ndarray
 
@@ -58,9 +69,11 @@ class Robustness:
 
     def format(self) -> str:
         lo, hi = self.interval
-        sx, sz, sv = self.apex_noise
-        lines = [f"{self.n} draws on the {self.backend} backend (seed {self.seed}): start apex noise sd "
-                 f"x {sx:g} m, z {sz:g} m, xdot {sv:g} m/s; leg-angle noise sd {self.angle_noise:g} rad",
+        n = self.noise
+        lines = [f"{self.n} draws on the {self.backend} backend (seed {self.seed}), the plan's first {self.hops} of "
+                 f"{len(self.record.footholds)} hops: apex error sd x {n.apex[0]:g} m, z {n.apex[1]:g} m, xdot "
+                 f"{n.apex[2]:g} m/s; leg angle sd {n.leg_angle:g} rad; stiffness, mass +-{n.stiffness:g}, "
+                 f"+-{n.mass:g}; friction +-{n.friction:g}; terrain heights sd {n.heights:g} m, edges sd {n.edges:g} m",
                  f"success rate {self.rate:.4f} ({self.successes}/{self.n}), 95% Wilson interval "
                  f"[{lo:.4f}, {hi:.4f}]"]
         counts = self.failure_counts()
@@ -96,27 +109,38 @@ class DrakeConfirmation:
         return "\n".join(lines)
 
 
-def success_probability(record: PlanRecord, n: int, apex_noise=(0.0, 0.0, 0.0), angle_noise: float = 0.0,
-                        seed: int = 0, backend: str = "fast",
-                        controller: StepLengthController | None = None) -> Robustness:
-    """Success rate of ``record``'s footholds over ``n`` draws: the start apex plus Gaussian noise with standard
-    deviations ``apex_noise`` = (x [m], z [m], xdot [m/s]), every commanded leg angle plus Gaussian noise of
-    standard deviation ``angle_noise`` [rad]. The same ``seed`` gives the same draws and outcomes."""
-    if not (isinstance(n, int) and n >= 1):
+def draw_robots(record: PlanRecord, n: int, noise: NoiseProfile, seed: int, hops: int) -> list:
+    """``n`` robots drawn from ``noise`` for the plan's first ``hops`` hops (seeded)."""
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(n):
+        errors = noise.apex_errors(rng, hops)
+        start = np.asarray(record.apex) - errors[0]  # the plan's start was the estimate of the first apex
+        params = noise.executed_params(record.params, rng)
+        sensed = noise.perceived(record.terrain, rng) if (noise.heights or noise.edges) else record.terrain
+        out.append(Draw(start, params, sensed, errors, noise.angle_errors(rng, hops)))
+    return out
+
+
+def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: int = 0, backend: str = "fast",
+                        hops: int | None = None, controller: StepLengthController | None = None) -> Robustness:
+    """Success rate of ``record``'s footholds over ``n`` robots drawn from ``noise`` (see the module doc), over
+    its first ``hops`` hops (default all)."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"n must be a positive integer, got {n!r}")
-    apex_noise = tuple(float(s) for s in apex_noise)
-    if len(apex_noise) != 3 or not all(math.isfinite(s) and s >= 0 for s in apex_noise + (float(angle_noise),)):
-        raise ValueError(f"noise must be finite and non-negative: apex_noise (x, z, xdot) = {apex_noise}, "
-                         f"angle_noise = {angle_noise!r}")
+    if not isinstance(noise, NoiseProfile):
+        raise TypeError(f"noise must be a drakeslip.noise.NoiseProfile, got {type(noise).__name__}")
     if backend not in BACKENDS:
         raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
-    rng = np.random.default_rng(seed)
-    start = np.asarray(record.apex) + rng.normal(size=(n, 3)) * apex_noise
-    errors = rng.normal(size=(n, len(record.footholds))) * float(angle_noise)
+    total = len(record.footholds)
+    hops = total if hops is None else hops
+    if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
+        raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
     controller = controller or StepLengthController.load_default()
     controller.check_params(record.params)
-    failures, hops = _run(record, start, errors, controller, backend)
-    return Robustness(record, apex_noise, float(angle_noise), seed, backend, start, errors, failures, hops)
+    draws = draw_robots(record, n, noise, seed, hops)
+    failures, failed = _run(record, draws, hops, controller, backend)
+    return Robustness(record, noise, seed, backend, hops, draws, failures, failed)
 
 
 def confirm_on_drake(result: Robustness, n_small: int,
@@ -124,19 +148,26 @@ def confirm_on_drake(result: Robustness, n_small: int,
     """Rerun the first ``n_small`` draws of a fast-backend ``result`` on Drake (about 0.1-0.2 s per hop)."""
     if result.backend != "fast":
         raise ValueError(f"confirm_on_drake compares a fast-backend result with Drake, got backend {result.backend!r}")
-    if not (isinstance(n_small, int) and 1 <= n_small <= result.n):
+    if isinstance(n_small, bool) or not isinstance(n_small, int) or not 1 <= n_small <= result.n:
         raise ValueError(f"n_small must be an integer in [1, {result.n}], got {n_small!r}")
     controller = controller or StepLengthController.load_default()
-    drake, _ = _run(result.record, result.start[:n_small], result.angle_errors[:n_small], controller, "drake")
+    drake, _ = _run(result.record, result.draws[:n_small], result.hops, controller, "drake")
     fast = result.failures[:n_small]
     name = lambda code: FailureMode(int(code)).name if code else "ok"
     return DrakeConfirmation(fast, drake, [(i, name(fast[i]), name(drake[i]))
                                            for i in np.flatnonzero(fast != drake)])
 
 
-def _run(record: PlanRecord, start, errors, controller, backend: str):
+def _run(record: PlanRecord, draws: list, hops: int, controller, backend: str):
     """Every draw's FailureMode code (0 = success) and the hop it failed in (-1 = success)."""
-    runs = rollouts(start, record.terrain, record.params, footholds=list(record.footholds), controller=controller,
-                    backend=backend, angle_errors=errors)
-    return (np.array([int(r.failure or 0) for r in runs], dtype=np.int64),
-            np.array([r.failed_hop for r in runs], dtype=np.int64))
+    footholds = [float(x) for x in record.footholds[:hops]]
+    failures, failed = np.zeros(len(draws), dtype=np.int64), np.full(len(draws), -1)
+    for i, d in enumerate(draws):
+        if d.start[1] <= record.terrain.height_at(d.start[0]):
+            failures[i], failed[i] = int(FailureMode.TRIP), 0  # a start below the ground: its foot is too
+            continue
+        run = rollout(d.start, record.terrain, d.params, footholds=footholds, controller=controller,
+                      backend=backend, apex_errors=d.apex_errors, angle_errors=d.angle_errors,
+                      sensed_terrain=d.sensed)
+        failures[i], failed[i] = int(run.failure or 0), run.failed_hop
+    return failures, failed

@@ -10,7 +10,7 @@ from planners.checkpoints import SUBCELL_WEIGHTS
 from planners.learned.inference import softmax
 from planners.learned.inputs import encode_window
 from planners.learned.lstm import FootstepDistribution, load_model
-from planners.search.step_space import StepSpacePlanner
+from planners.search.step_space import StepSpacePlanner, attempt_name
 from planners.search.tree import Children, CostWeights, best_first, run_attempts
 
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
@@ -80,7 +80,10 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     and a node with candidates left returns to the queue, so the search comes back to it when its children's
     subtrees die. Often only a band of footholds a few cm wide keeps the hop and the next one alive, narrower
     than the model's 10 cm cells, so three samples may miss it while the fourth or seventh hits it. Only the
-    drawn candidates are aimed (the controller's cost dominates a Step-space expansion).
+    drawn candidates are aimed (the controller's cost dominates a Step-space expansion). ``floor`` gives every
+    candidate at least that weight, so that from a state the model has not learned (a noisy robot's) the search
+    can still reach any foothold, the model's least likely last; 0 samples only what the model deems possible.
+    ``grid_fallback``: when the sampled searches find nothing, search Step-space's whole grid before giving up.
 
     The defaults are the best shipped setting: the sub-cell model (2.5 cm bins, ``SUBCELL_WEIGHTS``), restarted
     from each node's own apex (``conditioning="apex"``), its samples simulated one at a time in their drawn order
@@ -92,7 +95,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     def __init__(self, weights=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
                  temperature: float = 1.0, mask_ditches: bool = True, seed: int = 0, lazy: bool = True,
                  conditioning: str = "apex", cost_weights: CostWeights | tuple = CostWeights(),
-                 max_nodes: int = MAX_NODES, **options):
+                 max_nodes: int = MAX_NODES, floor: float = 0.0, grid_fallback: bool = False, **options):
         # ``weights`` here is the LSTM checkpoint; a node costs a model step on top of Step-space's work
         super().__init__(weights=cost_weights, max_nodes=max_nodes, **options)
         for b in (branching, *fallback):
@@ -108,16 +111,28 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         if conditioning not in ("path", "apex"):
             raise ValueError(f"conditioning must be 'path' or 'apex', got {conditioning!r}")
         self.conditioning = conditioning
+        if not (isinstance(floor, (int, float)) and 0 <= floor < 1):
+            raise ValueError(f"floor must be a probability in [0, 1), got {floor!r}")
+        self.floor = float(floor)
+        self.grid_fallback = bool(grid_fallback)
 
     def _plan(self, problem):
         self.controller.check_params(problem.params)
-        return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.attempts])
+        attempts = []
+        for r in self.robustness_levels():
+            attempts += [(f"{attempt_name(r)}B={b}", lambda b=b, r=r: self._search(problem, b, r))
+                         for b in self.attempts]
+            if self.grid_fallback:  # the whole grid, as Step-space searches it
+                attempts += [(f"{attempt_name(r)}grid {s or problem.terrain.cell / 4:g} m",
+                              lambda s=s, r=r: StepSpacePlanner._search(self, problem, s, r)) for s in self.spacings]
+        return run_attempts(self, problem, attempts)
 
-    def _search(self, problem, branching):
+    def _search(self, problem, branching, robust=None):
         sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
         terrain, params = problem.terrain, problem.params
         rng = np.random.default_rng(self.seed)
         draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
+        flights: dict = {}  # a robust node's apex -> the particles that flew there (planners/search/robust.py)
 
         def expand(tree, node) -> Children:
             """Simulate the node's next ``branching`` admissible candidates in LSTM-weighted random order (a
@@ -126,12 +141,12 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             if node not in draws:
                 apex = tree.apex[node]
                 x_l = self.candidates(apex, terrain, params, self.spacings[0], problem.window_end)
-                order = weighted_order(sampler.weights(tree, node, x_l), rng)
+                order = weighted_order(np.maximum(sampler.weights(tree, node, x_l), self.floor), rng)
                 draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
             d = draws[node]
             apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
             ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
-            tried = []
+            tried, calls = [], 0
             width = 1 if self.lazy else branching
             while d["pos"] < order.size or d["ready"]:
                 while len(d["ready"]) < width and d["pos"] < order.size:  # aiming is the cost: lazily
@@ -143,10 +158,15 @@ class LSTMGuidedPlanner(StepSpacePlanner):
                 d["ready"] = d["ready"][width:]
                 tried += batch.tolist()
                 ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
+                calls += batch.size
+                if robust is not None and tree.depth[node] < robust.depth:
+                    ok[batch], extra = self.robust(robust, problem, tree, node, x_l[batch], ok[batch], apexes[batch],
+                                                   flights)
+                    calls += extra
                 if ok[batch].any():
                     break
             idx = np.sort(np.array(tried, dtype=np.int64))
-            children = self.children(problem, x_l[idx], theta[idx], ok[idx], apexes[idx], idx.size)
+            children = self.children(problem, x_l[idx], theta[idx], ok[idx], apexes[idx], calls)
             children.more = bool(d["pos"] < order.size or d["ready"])
             return children
 

@@ -11,6 +11,7 @@ from drakeslip import StepLengthController, step, step_batch
 from drakeslip.stepmap import BACKENDS
 
 from planners.base import Plan, Planner, Problem
+from planners.search.robust import Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, Children, CostWeights, SearchResult,
                                   best_first, clear_of_edges, isolation, run_attempts, warm_up)
 
@@ -27,6 +28,11 @@ class StepSpacePlanner(Planner):
     ``fallback_spacing`` grid (like the paper's fallback branching): a fast, high hop keeps its next hop
     alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds.
 
+    ``robustness`` (a ``planners.search.robust.Robustness``, or its fields as a dict) keeps only children that
+    also work in its perturbed scenarios (state, actuation, model and terrain errors) and leave the hopper where
+    it can go on, so the plan keeps the margins a noisy robot needs; when no robust sequence is found the search
+    is retried without it (``fallback_nominal``), and the plan's message says which found it.
+
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
     calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
@@ -36,8 +42,13 @@ class StepSpacePlanner(Planner):
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
                  tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
                  weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
-                 edge_margin: float = EDGE_MARGIN, step_map: str = "fast", **budget):
+                 edge_margin: float = EDGE_MARGIN, step_map: str = "fast",
+                 robustness: Robustness | dict | None = None, fallback_nominal: bool = True, **budget):
         super().__init__(**budget)
+        self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
+        if self.robustness is not None and not isinstance(self.robustness, Robustness):
+            raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
+        self.fallback_nominal = bool(fallback_nominal)
         if step_map not in BACKENDS:
             raise ValueError(f"unknown step_map {step_map!r}; choose one of {BACKENDS}")
         self.step_map = step_map
@@ -81,21 +92,37 @@ class StepSpacePlanner(Planner):
         """One search on each grid in turn until one finds a sequence; the result's tree holds every node the
         last search created."""
         problem = self.problem(apex, terrain, goal_x, params, time.perf_counter())
-        for spacing in self.spacings:
-            result = self._search(problem, spacing)
+        for robust, spacing in self.attempt_settings():
+            result = self._search(problem, spacing, robust)
             if result.tree.goals or result.stop == "time":
                 break
         return result
 
-    def _search(self, problem: Problem, spacing) -> SearchResult:
+    def robustness_levels(self) -> list:
+        """What each round of attempts asks for, in order: ``robustness`` and its relaxed levels, then (with
+        ``fallback_nominal``) none."""
+        if self.robustness is None:
+            return [None]
+        return self.robustness.levels() + ([None] if self.fallback_nominal else [])
+
+    def attempt_settings(self) -> list:
+        """(robustness or None, grid spacing) of each search attempt, in order: the most robust first."""
+        return [(r, s) for r in self.robustness_levels() for s in self.spacings]
+
+    def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
         terrain, params = problem.terrain, problem.params
+        flights: dict = {}  # a robust node's apex -> the particles that flew there (robust.py)
 
         def expand(tree, node) -> Children:
             apex = tree.apex[node]
             x_l = self.candidates(apex, terrain, params, spacing)
             theta = self.aim(apex, x_l, terrain, params)
             ok, apexes = self.simulate(problem, apex, x_l, theta)
-            return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
+            calls = int(np.count_nonzero(~np.isnan(theta)))
+            if robust is not None and tree.depth[node] < robust.depth:
+                ok, extra = self.robust(robust, problem, tree, node, x_l, ok, apexes, flights)
+                calls += extra
+            return self.children(problem, x_l, theta, ok, apexes, calls)
 
         return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
 
@@ -120,6 +147,21 @@ class StepSpacePlanner(Planner):
         ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < self.tolerance) & (apexes[keep, 2] >= self.min_speed)
         return ok, apexes
 
+    def robust(self, rob: Robustness, problem: Problem, tree, node: int, x_l: np.ndarray, ok: np.ndarray,
+               apexes: np.ndarray, flights: dict):
+        """``ok`` kept only where the particles of ``rob`` that flew to ``node`` (``flights``, by apex; the
+        start's own at the root) all make the hop (``Robustness.fly``); the kept children's particles are recorded
+        in ``flights``. Returns the kept mask and the step-map calls that took."""
+        here = flights[tuple(tree.apex[node])] if node else rob.particles(tree.apex[0])
+        keep = np.flatnonzero(ok)
+        robust, ends, calls = rob.fly(here, x_l[keep], self.controller, problem.terrain, problem.params,
+                                      last=tree.depth[node] == rob.depth - 1)
+        out = np.zeros_like(ok)
+        out[keep[robust]] = True
+        for i, states in zip(keep[robust], ends[robust]):
+            flights[tuple(apexes[i])] = here.moved(states)
+        return out, calls
+
     @staticmethod
     def children(problem: Problem, x_l, theta, ok, apexes, ode_calls: int) -> Children:
         """The successful candidates (sorted by x_l) as the node's children; a hop past the window ends the
@@ -132,8 +174,14 @@ class StepSpacePlanner(Planner):
 
     def _plan(self, problem: Problem) -> Plan:
         self.controller.check_params(problem.params)
-        return run_attempts(self, problem, [(f"grid {s or problem.terrain.cell / 4:g} m",
-                                             lambda s=s: self._search(problem, s)) for s in self.spacings])
+        return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s or problem.terrain.cell / 4:g} m",
+                                             lambda s=s, r=r: self._search(problem, s, r))
+                                            for r, s in self.attempt_settings()])
+
+
+def attempt_name(robustness: Robustness | None) -> str:
+    """How a plan's message names the robustness its search asked for."""
+    return "" if robustness is None else f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}) "
 
 
 REACH_ANGLES = np.linspace(-1.0, 1.0, 41)  # fractions of the friction-cone limit at which the reach is evaluated

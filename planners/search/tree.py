@@ -116,9 +116,9 @@ class SearchTree:
 
 
 def clear_of_edges(terrain: Terrain, x: np.ndarray, margin: float) -> np.ndarray:
-    """True where the terrain is level within ``margin`` of x on both sides (no step or ditch edge nearby)."""
-    h = terrain.height_at(x)
-    return (terrain.height_at(x - margin) == h) & (terrain.height_at(x + margin) == h)
+    """True where the terrain is level within ``margin`` of x on both sides (no step or ditch edge nearby; a sensed
+    map's noise is not an edge, see ``Terrain.same_level``)."""
+    return terrain.same_level(x - margin, x) & terrain.same_level(x + margin, x)
 
 
 @functools.cache
@@ -225,9 +225,10 @@ def run_attempts(planner: Planner, problem: Problem, attempts) -> Plan:
         nodes += result.nodes_expanded
         stops.append(f"{label}: {result.stop}")
         if result.tree.goals:
+            before = f" (after {'; '.join(stops[:-1])})" if len(stops) > 1 else ""
             return Plan(planner.name, True, problem.target_x, ode_calls, nodes_expanded=nodes,
                         sequences=[result.tree.path(g) for g in result.tree.goals],
-                        time_limited=result.stop == "time")
+                        time_limited=result.stop == "time", message=f"found by {label}{before}")
         if result.stop == "time":
             break
     return Plan(planner.name, False, problem.target_x, ode_calls, nodes_expanded=nodes,
