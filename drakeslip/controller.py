@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip.jobs.files import atomic_write, check_digest, first_line, record_digest
+from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
@@ -157,17 +157,8 @@ class StepLengthController:
     def load(cls, path, refine: bool = True) -> "StepLengthController":
         """A controller from a weights file written by ``save``; a missing, damaged or mismatched file raises
         FileNotFoundError or ValueError naming it."""
-        import torch
-
         path = Path(path)
-        check_digest(path)
-        try:
-            blob = torch.load(path, map_location="cpu", weights_only=True)
-        except FileNotFoundError:
-            raise
-        except Exception as exc:  # torch raises many types for a damaged file
-            raise ValueError(f"controller weights file {path} is corrupt or not a torch file: "
-                             f"{first_line(exc)}") from exc
+        blob = load_weights(path, "controller weights file")
         if not isinstance(blob, dict) or blob.get("format") != WEIGHTS_FORMAT:
             raise ValueError(f"controller weights file {path} is not in format {WEIGHTS_FORMAT!r}")
         try:

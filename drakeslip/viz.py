@@ -165,3 +165,45 @@ def animate(result: SimulationResult, path, fps: int = 30, view_width: float = 4
             label.set_text(f"t = {t:5.2f} s   {Mode(int(result.hybrid[i, _MODE])).name.lower()}")
             writer.grab_frame()
     return frame_times.size
+
+
+def plot_search_tree(ax, terrain: Terrain, parent, foothold, apex, best=(), xlim=None):
+    """A footstep search tree over the terrain: each node i > 0 as the hop from its parent's apex down to its
+    foothold and up to its own apex, coloured by depth (hops from the root); the nodes of ``best`` (a root-to-goal
+    branch, root excluded) in bold. ``parent``, ``foothold`` and ``apex`` are per node, node 0 the root (its
+    apex the start). Returns the depth colour bar's mappable."""
+    from matplotlib.collections import LineCollection
+
+    parent, foothold = np.asarray(parent), np.asarray(foothold, dtype=float)
+    apex = np.asarray(apex, dtype=float).reshape(-1, 3)
+    nodes = np.arange(1, parent.size)
+    depth = np.zeros(parent.size, dtype=int)
+    for i in nodes:  # parents come before their children
+        depth[i] = depth[parent[i]] + 1
+    ground = terrain.height_at(foothold[nodes])
+    hops = np.stack([apex[parent[nodes], :2], np.column_stack([foothold[nodes], ground]), apex[nodes, :2]], axis=1)
+    if xlim is None:
+        xs = np.concatenate([apex[:, 0], foothold[nodes]])
+        xlim = (float(xs.min()) - 0.5, float(xs.max()) + 0.5)
+    plot_terrain(ax, terrain, xlim)
+    lines = LineCollection(hops, array=depth[nodes], cmap="viridis", lw=0.6, alpha=0.55, zorder=3,
+                           label="hops tried (apex to foothold to next apex, straight)")
+    ax.add_collection(lines)
+    ax.plot(foothold[nodes], ground, "|", color="black", ms=4, alpha=0.4, zorder=3,
+            label=f"footholds tried ({nodes.size} nodes)")
+    best = list(best)
+    if best:
+        chain = [0] + best
+        path = [apex[0, :2]]
+        for a, b in zip(chain[:-1], chain[1:]):
+            path += [(foothold[b], terrain.height_at(foothold[b])), apex[b, :2]]
+        path = np.array(path)
+        ax.plot(path[:, 0], path[:, 1], "-", color="#d62728", lw=2.2, zorder=5, label="plan (best branch)")
+        ax.plot(path[1::2, 0], path[1::2, 1], "^", color="#d98c00", mec="black", ms=7, zorder=6,
+                label="planned footholds")
+    ax.plot(apex[0, 0], apex[0, 1], "o", color="white", mec=BODY_COLOR, mew=2, ms=9, zorder=6, label="start apex")
+    ax.set_xlim(*xlim)
+    ax.set_ylim(top=float(apex[:, 1].max()) + 0.2)
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("z [m]")
+    return lines

@@ -18,7 +18,7 @@ import sys
 from collections import Counter
 
 from drakeslip.jobs import cli
-from planners.registry import check_label, labels
+from planners.registry import check_label, labels, planner_name
 
 MODES = ("angles", "footholds", "auto")
 
@@ -26,7 +26,7 @@ MODES = ("angles", "footholds", "auto")
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
-    ap.add_argument("--planners", type=cli.names, default=",".join(label for label in labels() if label != "trajopt"),
+    ap.add_argument("--planners", type=cli.names, default=",".join(label for label in labels() if planner_name(label) != "trajopt"),
                     help="planner labels, comma-separated")
     ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
     ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")

@@ -7,6 +7,10 @@ planning call; the file holds the whole terrain, so examples/verify_plan.py chec
     python3 examples/make_plan.py --suite suites/step.json --case 7 --planner trajopt \
         --options '{"seed": "lstm-guided"}' --out out/trajopt-plan.json
 
+--plot PATH.png draws the search tree the planner expanded over the terrain, the plan in bold (the search
+planners, angle and step, run their search once more to keep the tree: the same search, the same plan; other
+planners' plans are drawn alone).
+
 Exit status: 0 a plan was written, 1 the planner found no plan, 2 a usage or input error.
 """
 from __future__ import annotations
@@ -26,6 +30,8 @@ def main(argv=None) -> int:
     ap.add_argument("--options", default="{}",
                     help='the planner\'s options as a JSON object, e.g. \'{"seed": "lstm-guided"}\' for trajopt')
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="plan file to write (JSON)")
+    ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
+                    help="also draw the search tree over the terrain (PNG)")
     args = ap.parse_args(argv)
     try:
         options = json.loads(args.options)
@@ -52,7 +58,10 @@ def main(argv=None) -> int:
     else:
         ap.error(f"--case {args.case!r} is neither a case id nor an index below {len(ids)} in {args.suite}")
     params = SlipParams(friction=suite.friction)
-    plan = planner.plan(case.apex, case.terrain.perceived(case.apex.x), suite.goal_x, params)
+    window = case.terrain.perceived(case.apex.x)
+    plan = planner.plan(case.apex, window, suite.goal_x, params)
+    if args.plot:
+        plot_tree(planner, plan, case, window, suite.goal_x, params, args)
     if not plan.success:
         print(f"{args.planner} on {case.id}: {plan.message}")
         return cli.FAILED
@@ -60,6 +69,35 @@ def main(argv=None) -> int:
     print(f"{args.planner} on {case.id}: {len(plan.footholds)} footholds to x={plan.footholds[-1]:.3f} "
           f"(target {plan.target_x:g}) in {plan.time_s:.3f} s; wrote {args.out}")
     return cli.OK
+
+
+def plot_tree(planner, plan, case, window, goal_x, params, args):
+    """The search tree over the case's terrain: a search planner's whole tree (its search run again, kept), or
+    for the others the plan's own branch."""
+    import numpy as np
+
+    from drakeslip.viz import new_axes, plot_search_tree
+
+    if hasattr(planner, "search"):  # the angle- and step-space planners: the search behind the plan
+        tree = planner.search(case.apex, window, goal_x, params).tree
+        parent, foothold, apex = tree.parent, tree.foothold, tree.apex
+        best = tree.branch(tree.goals[0]) if tree.goals else []
+        what = f"search tree: {len(tree)} nodes, {len(tree.expanded)} expanded"
+    else:
+        n = len(plan.footholds)
+        parent, foothold = list(range(-1, n)), [np.nan, *plan.footholds]
+        apex, best = [tuple(case.apex), *map(tuple, plan.apexes)], list(range(1, n + 1))
+        what = f"no search tree (the {plan.planner} planner does not search): its plan"
+    ax = new_axes((12, 4.2))
+    lines = plot_search_tree(ax, case.terrain, parent, foothold, apex, best)
+    ax.figure.colorbar(lines, ax=ax, label="depth [hops from the start]", pad=0.01)
+    ax.axvline(plan.target_x, color="green", ls=":", lw=1.5, label=f"target x = {plan.target_x:g} m")
+    ax.set_title(f"{args.planner} on {case.id}: {what}; {plan.ode_calls} ODE calls, "
+                 f"{'plan found' if plan.success else 'no plan'}", fontsize=10)
+    ax.figure.legend(loc="outside lower center", fontsize=8, ncols=5, frameon=False)
+    args.plot.parent.mkdir(parents=True, exist_ok=True)
+    ax.figure.savefig(args.plot, dpi=120)
+    print(f"figure: {args.plot}")
 
 
 if __name__ == "__main__":

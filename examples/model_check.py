@@ -69,6 +69,7 @@ def main(argv=None) -> int:
     from planners.formats.suite import load_suite
     from verification.model_check import COARSE, LEVELS, TRAVERSABLE
     from verification.model_check_suite import check_suite, cross_check, select_cases
+    from verification.provenance import provenance
 
     try:
         suite = load_suite(args.suite)
@@ -86,6 +87,8 @@ def main(argv=None) -> int:
                           levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
                           progress=not args.quiet, executor=executor, energy=not args.no_energy,
                           confirm=args.confirm, parallel=args.parallel_steps)
+    results["budget"] = {"max_nodes": args.budget, "max_time_s": args.seconds}  # the config leaves it out
+    results["provenance"] = provenance()
     write_json(args.out, results)
 
     s = results["summary"]

@@ -3,7 +3,9 @@ footholds executed by the learned controller on the Drake hybrid simulator, to t
 
     python3 examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
 
-Writes a figure of the terrain, the body path, the planned and the executed footholds.
+Writes a figure of the terrain, the body path, the planned and the executed footholds; --html also writes a
+Meshcat replay of the run (self-contained HTML: the executed footholds against the planned ones, the plans'
+predicted apexes, the failure marked and named).
 Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error.
 """
 from __future__ import annotations
@@ -28,6 +30,8 @@ def main(argv=None) -> int:
     ap.add_argument("--goal", type=cli.number(0.5, 19.0), default=10.0, help="goal x [m] (the terrain ends at 20 m)")
     ap.add_argument("--friction", type=cli.positive, default=0.8, help="Coulomb friction coefficient at the foot")
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
+    ap.add_argument("--html", type=cli.output_file(".html"), default=None,
+                    help="also write a Meshcat replay of the run (self-contained HTML)")
     args = ap.parse_args(argv)
 
     from drakeslip import ApexState, SlipParams, StepLengthController
@@ -39,7 +43,7 @@ def main(argv=None) -> int:
         check_label(args.planner)
         params = SlipParams(friction=args.friction)
         controller = StepLengthController.load_default()
-        planner = make_planners({args.planner: None}, controller)[args.planner]
+        planner = Recorder(make_planners({args.planner: None}, controller)[args.planner])
     except (OSError, ValueError) as error:
         ap.error(str(error))
     cli.announce(argv)
@@ -54,8 +58,23 @@ def main(argv=None) -> int:
     outcome = "reached the goal" if result["success"] else f"failed: {result['failure']}"
     print(f"{args.planner} on {args.terrain} seed {args.seed}: {outcome} at x = {result['final_x']:.2f} "
           f"after {len(result['plans'])} plans")
-    write_figure(replay(result, apex, terrain, params, controller), result, args)
+    sim = replay(result, apex, terrain, params, controller)
+    write_figure(sim, result, args)
+    if args.html:
+        write_html(sim, result, planner.plans, args)
     return cli.OK if result["success"] else cli.FAILED
+
+
+class Recorder:
+    """The planner, keeping every Plan it returns (the loop's records have no predicted apexes)."""
+
+    def __init__(self, planner):
+        self.planner, self.plans = planner, []
+
+    def plan(self, *args, **kwargs):
+        plan = self.planner.plan(*args, **kwargs)
+        self.plans.append(plan)
+        return plan
 
 
 def replay(result: dict, apex, terrain, params, controller):
@@ -93,6 +112,22 @@ def write_figure(sim, result, args):
     args.out.parent.mkdir(parents=True, exist_ok=True)
     ax.figure.savefig(args.out, dpi=110)
     print(f"wrote {args.out}")
+
+
+def write_html(sim, result, plans, args):
+    """The Meshcat replay: every executed plan's commanded footholds and predicted apexes over the run."""
+    from drakeslip.meshcat_replay import write_replay
+
+    if sim is None:
+        print("no replay: no foothold was commanded")
+        return
+    k = EXECUTED_PER_PLAN  # what replay() commanded of each executed plan
+    executed = [plan for plan, record in zip(plans, result["plans"]) if "executed" in record]
+    outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
+    write_replay(sim, args.html, planned_footholds=[x for plan in executed for x in plan.footholds[:k]],
+                 predicted_apexes=[a for plan in executed for a in plan.apexes[:k]],
+                 title=f"plan_and_hop.py: {args.planner} on {args.terrain} terrain seed {args.seed}, {outcome}")
+    print(f"replay: {args.html}")
 
 
 if __name__ == "__main__":

@@ -10,6 +10,9 @@ plan's footholds through the controller, without replanning, for the plan's firs
 the fast backend; --drake K reruns the first K on Drake. The plan's own margins on Drake (spring travel left,
 friction to spare, distance of its footholds from edges) are printed first: they are what noise eats into.
 
+--out writes the result as JSON (the rate, the failures, every draw's errors and outcome, and where the result
+came from); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome (PNG).
+
 Exit status: 0 when the draws ran, 2 for a usage or input error.
 """
 from __future__ import annotations
@@ -40,12 +43,17 @@ def main(argv=None) -> int:
                     help="count a draw a success when it completes the plan's first HOPS hops (default: all of them)")
     ap.add_argument("--drake", type=cli.non_negative_int, default=0, metavar="K",
                     help="rerun the first K draws on Drake and report agreement")
+    ap.add_argument("--out", type=cli.output_file(".json"), default=None, help="also write the result (JSON)")
+    ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
+                    help="also draw the draws by outcome in (apex error, leg-angle error) space (PNG)")
     args = ap.parse_args(argv)
     if args.drake > args.samples:
         ap.error(f"--drake {args.drake} is more than --samples {args.samples}")
 
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
+    from drakeslip.jobs.runner import write_json
+    from verification.provenance import provenance
     from verification.robustness import confirm_on_drake, success_probability
 
     try:
@@ -68,6 +76,19 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         confirmation = confirm_on_drake(result, args.drake)
         print(confirmation.format() + f" ({time.perf_counter() - t0:.1f} s)")
+    document = {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()}
+    if args.drake:
+        document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
+    if args.out:
+        write_json(args.out, document)
+        print(f"wrote {args.out}")
+    if args.plot:
+        from verification.plots import noise_scale, robustness_figure
+
+        k = noise_scale(document["noise"])
+        noise = f"realistic*{k:g}" if k is not None else "custom profile"
+        title = f"{record.planner} plan {args.plan.name}, noise {noise}"
+        print(f"figure: {robustness_figure(document, args.plot, title)}")
     return cli.OK
 
 

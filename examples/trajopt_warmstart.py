@@ -86,6 +86,9 @@ def parser() -> cli.ArgumentParser:
     ap.add_argument("--lstm-weights", type=cli.input_file, default=None,
                     help="checkpoint for the lstm and lstm-guided seeds (None: each seed label's own)")
     cli.add_parallel(ap)
+    ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
+                    help="also draw the first case: each seed's footholds and the optimized leg angles run on Drake, "
+                         "and the optimizer's footholds and apexes, over the terrain (PNG)")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the stored solves")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     return ap
@@ -202,6 +205,7 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import JsonLinesStore, remove, run, write_json
     from planners.trajopt.planner import make_problem
     from planners.trajopt.solve import optimize
+    from verification.provenance import provenance
 
     cases = list(suite.cases[::args.every])[:args.cases]
     params = SlipParams(friction=suite.friction)
@@ -230,12 +234,35 @@ def main(argv=None) -> int:
     bar.close()
     done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
-               "every": args.every, "config": asdict(config), "options": options,
-               "seeds": {s: summarize(done[s]) for s in seeds}}
+               "every": args.every, "config": asdict(config), "options": options, "weights": files,
+               "provenance": provenance(), "seeds": {s: summarize(done[s]) for s in seeds}}
     write_json(args.out, results)
     print(table(results))
     print(f"wrote {args.out}")
+    if args.plot and cases:
+        plot_case(cases[0], {s: done[s][0] for s in seeds}, params, suite.name, args.plot)
     return cli.OK
+
+
+def plot_case(case, records: dict, params, suite_name: str, path) -> None:
+    """``verification.plots.trajopt_figure`` of one case: per seed, its footholds through the controller and the
+    optimized leg angles open loop, both logged on Drake."""
+    from drakeslip import StepLengthController
+    from drakeslip.rollout import rollout
+    from verification.plots import trajopt_figure
+
+    controller = StepLengthController.load_default()
+    panels = []
+    for seed, r in records.items():
+        seed_sim = drake_sim = None
+        if r.get("seed_footholds"):
+            seed_sim = rollout(case.apex, case.terrain, params, footholds=r["seed_footholds"],
+                               controller=controller, log=True).simulation
+        if r.get("leg_angles"):
+            drake_sim = rollout(case.apex, case.terrain, params, leg_angles=r["leg_angles"], log=True).simulation
+        panels.append({"seed": seed, "record": r, "seed_sim": seed_sim, "drake_sim": drake_sim})
+    title = f"trajopt_warmstart.py: seed vs optimized vs Drake rollout, {suite_name} case {case.id}"
+    print(f"figure: {trajopt_figure(case.terrain, panels, path, title)}")
 
 
 if __name__ == "__main__":

@@ -8,11 +8,15 @@ the plan's target; its margins say how far it stayed from each failure. Otherwis
 first place the run left the plan (a failure, a missed foothold, a missed apex, the target not reached), with
 the hop, planned against actual, the state and hybrid state there, and the trace up to it.
 
+--plot draws the Drake run over the terrain with the planned and actual footholds and the counterexample marked
+(PNG); --html writes a Meshcat replay of it (self-contained HTML).
+
 Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree: see
 planners/formats/plan.py).
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from drakeslip.jobs import cli
@@ -31,11 +35,16 @@ def main(argv=None) -> int:
                     help="how far [m, m/s] a touchdown or apex may be from the plan's")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None,
                     help="also write the certificate or counterexample here (JSON)")
+    ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
+                    help="also draw the Drake run, planned against actual, the counterexample marked (PNG)")
+    ap.add_argument("--html", type=cli.output_file(".html"), default=None,
+                    help="also write a Meshcat replay of the Drake run (self-contained HTML)")
     args = ap.parse_args(argv)
 
     from drakeslip.jobs.runner import write_json
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
+    from verification.provenance import provenance
 
     try:
         record = load_plan(args.plan)
@@ -48,7 +57,20 @@ def main(argv=None) -> int:
     result = check_plan(record, args.mode, args.tolerance)
     print(result.format())
     if args.out:
-        write_json(args.out, result.to_dict())
+        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
+    title = f"verify_plan.py: {record.planner} plan {args.plan.name}"
+    if args.plot:
+        from verification.plots import plan_check_figure
+
+        print(f"figure: {plan_check_figure(result, record, result.simulation, args.plot, title)}")
+    if args.html:
+        from drakeslip.meshcat_replay import write_replay
+
+        verdict = "certified" if result.ok else f"counterexample: {result.reason()}"
+        write_replay(result.simulation, args.html, planned_footholds=list(record.footholds),
+                     predicted_apexes=[a for a in record.apexes if all(map(math.isfinite, a))],
+                     title=f"{title}, {result.mode}: {verdict}")
+        print(f"replay: {args.html}")
     return cli.OK if result.ok else cli.FAILED
 
 

@@ -37,6 +37,9 @@ PRESETS = {
     # replanning at every apex; the sampled search falls back on the whole grid before giving up
     "step@robust": {"robustness": {}},
     "lstm-guided@robust": {"robustness": {}, "grid_fallback": True},
+    # trajectory optimization that also maximizes the plan's least spring travel and friction to spare
+    # (planners/trajopt/margins.py; planners/trajopt/config.py says why these weights)
+    "trajopt@robust": {"config": {"weights": {"stroke": 10.0, "friction": 1.0}}},
 }
 
 

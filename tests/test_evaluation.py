@@ -67,11 +67,11 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert run.returncode == 0, run.stderr
     assert "Success %" in run.stdout and "step" in run.stdout
     results = json.loads(out.read_text())
-    assert set(results) == {"suite", "options", "planners"}
+    assert set(results) == {"suite", "options", "planners", "provenance"}
     assert set(results["planners"]) == {"heuristic", "step"}
     for block in results["planners"].values():
         assert block["config"] == ClosedLoopConfig().to_dict()   # the protocol: noiseless, the paper's period
-        assert set(block) == {"config", "success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
+        assert set(block) == {"config", "weights", "success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
                               "t_plan_mean_s", "t_plan_median_s", "nodes_expanded_mean", "footholds_mean",
                               "time_limited_calls", "cases"}
         assert block["success_interval"][0] <= block["success_rate"] <= block["success_interval"][1]
@@ -87,7 +87,31 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
         f.write('{"key": "cut sh')  # a line cut short by a kill is ignored
     again = benchmark.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
                                progress=False, config=ClosedLoopConfig())
-    assert again == results
+    assert {**again, "provenance": None} == {**results, "provenance": None}  # all but the date and machine
+
+
+def test_results_say_where_they_came_from():
+    """Two runs of different settings can be told apart from their results alone: the closed-loop config (noise,
+    period, backend), the options after presets, the weights' digests and the code, libraries and machine."""
+    suite = make_suite("ditch", 7, 1, speeds=(2.0,), heights=(0.9,))
+    from drakeslip.noise import profile
+
+    runs = [benchmark.evaluate(suite, {"heuristic": {}}, n_cases=1, progress=False, config=config)
+            for config in (ClosedLoopConfig(backend="fast"),
+                           ClosedLoopConfig(backend="fast", executed_per_plan=1, noise=profile("realistic*0.5")))]
+    quiet, noisy = (r["planners"]["heuristic"]["config"] for r in runs)
+    assert quiet["noise"]["leg_angle"] == 0 and noisy["noise"]["leg_angle"] == pytest.approx(
+        0.5 * profile("realistic").leg_angle)
+    assert (quiet["executed_per_plan"], noisy["executed_per_plan"]) == (3, 1) and quiet["backend"] == "fast"
+    p = runs[0]["provenance"]
+    assert set(p) == {"package_version", "git_commit", "git_dirty", "versions", "cores", "date", "platform"}
+    assert set(p["versions"]) == {"python", "drake", "torch", "numpy"} and p["versions"]["numpy"]
+    assert p["cores"] >= 1 and p["date"].endswith("+00:00")
+    weights = runs[0]["planners"]["heuristic"]["weights"]
+    assert weights == {"drakeslip/weights/controller.pt": benchmark.weights_files("heuristic", {})[
+        "drakeslip/weights/controller.pt"]} and len(next(iter(weights.values()))) == 64
+    lstm = benchmark.weights_files("lstm", None)
+    assert len(lstm) >= 2 and all(len(v) == 64 for v in lstm.values())  # the model's files too
 
 
 def test_every_kth_case_is_evaluated(tmp_path):

@@ -178,3 +178,27 @@ def test_hop_example_writes_a_replay(run_script, tmp_path):
     assert code == 0 and f"replay: {tmp_path / 'hop.html'}" in out
     text = (tmp_path / "hop.html").read_text()
     assert "hop.py: step terrain, seed 3" in text and "planned footholds" in text and "predicted apexes" in text
+
+
+def test_plan_and_hop_writes_a_replay_that_renders(run_script, tmp_path):
+    """--html is checked before any work; the replay of a short receding-horizon run shows the planned footholds,
+    the predicted apexes and the executed footholds, in a real browser when one is installed."""
+    code, _, err = run_script("plan_and_hop", "--out", tmp_path / "p.png", "--html", tmp_path / "p.htm")
+    assert code == 2 and "must end in .html" in err and len(err.splitlines()) == 1
+    page = tmp_path / "replay.html"
+    code, out, _ = run_script("plan_and_hop", "--terrain", "step", "--seed", "3", "--goal", "3", "--out",
+                              tmp_path / "p.png", "--html", page)
+    assert code == 0 and f"replay: {page}" in out
+    text = page.read_text()
+    assert "plan_and_hop.py: step on step terrain seed 3, reached the goal" in text
+    assert "planned footholds" in text and "predicted apexes" in text and page.stat().st_size > 100_000
+    if browser() is None:
+        return
+    from PIL import Image
+
+    from drakeslip import meshcat_replay as mr
+
+    screenshot(page, tmp_path / "replay.png", budget_ms=3000)
+    scene = np.asarray(Image.open(tmp_path / "replay.png").convert("RGB"))[mr.HEADER_PX + 2:]
+    counts = {name: near(scene, getattr(mr, f"{name}_RGB")) for name in ("TERRAIN", "BODY", "PLANNED", "EXECUTED")}
+    assert counts["TERRAIN"] > 0.1 * scene.shape[0] * scene.shape[1] and all(n > 50 for n in counts.values()), counts

@@ -192,7 +192,8 @@ def test_cli_writes_the_results_format_and_resumes(tmp_path, monkeypatch, run_sc
     assert code == 0, err
     assert "ceiling 100.0 %" in stdout
     results = json.loads(out.read_text())
-    assert set(results) >= {"suite", "cases", "summary"}
+    assert set(results) >= {"suite", "cases", "summary", "provenance"}
+    assert results["budget"] == {"max_nodes": 20000, "max_time_s": 60.0} and results["provenance"]["versions"]["drake"]
     assert set(results["summary"]) >= {"traversable", "not_traversable", "unknown", "decided_rate", "ceiling"}
     case = results["cases"][0]
     assert set(case) >= {"id", "verdict", "witness", "nodes", "time_s"} and case["verdict"] == mc.TRAVERSABLE

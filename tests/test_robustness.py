@@ -8,9 +8,11 @@ import planners
 from drakeslip.controller import StepLengthController
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import make_suite
+from drakeslip.noise import NoiseProfile, profile
 from verification.robustness import confirm_on_drake, success_probability, wilson_interval
 
-NOISY = dict(apex_noise=(0.01, 0.01, 0.05), angle_noise=0.02)
+NOISY = dict(noise=NoiseProfile(apex=(0.01, 0.01, 0.05), leg_angle=0.02))
+CLEAN = dict(noise=profile("none"))
 
 
 @pytest.fixture(scope="module")
@@ -41,14 +43,15 @@ def test_deterministic_under_a_seed(record, controller):
     a = success_probability(record, 200, seed=3, controller=controller, **NOISY)
     b = success_probability(record, 200, seed=3, controller=controller, **NOISY)
     c = success_probability(record, 200, seed=4, controller=controller, **NOISY)
-    np.testing.assert_array_equal(a.start, b.start)
+    starts = lambda r: np.array([d.start for d in r.draws])
+    np.testing.assert_array_equal(starts(a), starts(b))
     np.testing.assert_array_equal(a.failures, b.failures)
     np.testing.assert_array_equal(a.failed_hops, b.failed_hops)
-    assert not np.array_equal(a.start, c.start)
+    assert not np.array_equal(starts(a), starts(c))
 
 
 def test_certain_without_noise_and_falls_with_large_noise(record, controller):
-    clean = success_probability(record, 500, seed=0, controller=controller)
+    clean = success_probability(record, 500, seed=0, controller=controller, **CLEAN)
     assert clean.rate == 1.0 and clean.interval[0] > 0.99 and clean.failure_counts() == {}
     noisy = success_probability(record, 500, seed=0, controller=controller, **NOISY)
     assert noisy.rate < 0.5 and noisy.interval[1] < 0.5
@@ -58,7 +61,7 @@ def test_certain_without_noise_and_falls_with_large_noise(record, controller):
 
 
 def test_drake_confirms_the_same_draws(record, controller):
-    clean = success_probability(record, 10, seed=0, controller=controller)
+    clean = success_probability(record, 10, seed=0, controller=controller, **CLEAN)
     confirmation = confirm_on_drake(clean, 1, controller=controller)
     assert confirmation.n == 1 and confirmation.agreement == 1.0 and confirmation.drake.tolist() == [0]
     noisy = success_probability(record, 10, seed=1, controller=controller, **NOISY)
@@ -68,11 +71,12 @@ def test_drake_confirms_the_same_draws(record, controller):
 
 
 @pytest.mark.parametrize("call, message", [
-    (lambda r: success_probability(r, 0), "n must be"),
-    (lambda r: success_probability(r, 10, apex_noise=(0.1, -1, 0)), "non-negative"),
-    (lambda r: success_probability(r, 10, angle_noise=float("nan")), "angle_noise = nan"),
-    (lambda r: success_probability(r, 10, backend="gpu"), "backend"),
-    (lambda r: confirm_on_drake(success_probability(r, 5), 6), r"n_small must be an integer in \[1, 5\]"),
+    (lambda r: success_probability(r, 0, **CLEAN), "n must be"),
+    (lambda r: success_probability(r, 10, NoiseProfile(apex=(0.1, -1, 0))), "must not be negative"),
+    (lambda r: success_probability(r, 10, NoiseProfile(leg_angle=float("nan"))), "leg_angle"),
+    (lambda r: success_probability(r, 10, backend="gpu", **CLEAN), "backend"),
+    (lambda r: success_probability(r, 10, **CLEAN, hops=9), r"hops must be an integer in \[1, 4\], got 9"),
+    (lambda r: confirm_on_drake(success_probability(r, 5, **CLEAN), 6), r"n_small must be an integer in \[1, 5\]"),
 ])
 def test_bad_arguments_are_named(record, call, message):
     with pytest.raises(ValueError, match=message):
@@ -82,10 +86,10 @@ def test_bad_arguments_are_named(record, call, message):
 def test_cli(tmp_path, record, run_script):
     record.save(tmp_path / "plan.json")
     code, out, _ = run_script("robustness", "--plan", tmp_path / "plan.json", "--samples", "50", "--seed", "1",
-                              "--apex-noise", "0,0,0", "--angle-noise", "0")
+                              "--noise", "none")
     assert code == 0 and "success rate 1.0000 (50/50)" in out
     (tmp_path / "bad.json").write_text("[]")
     code, _, err = run_script("robustness", "--plan", tmp_path / "bad.json")
     assert code == 2 and "must be an object, got list" in err and len(err.splitlines()) == 1
-    code, _, err = run_script("robustness", "--plan", tmp_path / "plan.json", "--angle-noise", "nan")
-    assert code == 2 and "--angle-noise" in err
+    code, _, err = run_script("robustness", "--plan", tmp_path / "plan.json", "--noise", "realistic*nan")
+    assert code == 2 and "--noise" in err and len(err.splitlines()) == 1

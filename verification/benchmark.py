@@ -4,7 +4,8 @@ Each (planner label, case) is one task of the job runner (``drakeslip.jobs``): r
 worker processes or on a Ray cluster, saved to a JSON-lines store as it finishes, and reused by a later run of
 the same setup, so a killed evaluation resumes where it stopped. A task's key is a fingerprint of everything its
 result depends on: the case, the planner and its options after presets, the closed-loop settings, and the
-digests of the controller and every weights file the planner reads.
+digests of the controller and every weights file the planner reads. The results record them too (each planner's
+"options", "config" and "weights": SHA-256 by file) with the code, libraries, machine and date ("provenance").
 """
 from __future__ import annotations
 
@@ -20,6 +21,7 @@ from drakeslip.jobs.runner import JsonLinesStore, run
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.suite import Suite, suite_from_dict
 from planners.registry import files_read, make_planners, options_for
+from verification.provenance import provenance, weights_digests
 from verification.report import summarize
 
 _WORKER: dict = {}
@@ -114,6 +116,13 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
             done[label][case.id] = result
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
-    return {"suite": suite.name, "options": specs,
-            "planners": {label: {"config": configs[label].to_dict(), **summarize([done[label][c.id] for c in cases])}
+    return {"suite": suite.name, "options": specs, "provenance": provenance(),
+            "planners": {label: {"config": configs[label].to_dict(),
+                                 "weights": weights_files(label, specs[label], controller_path),
+                                 **summarize([done[label][c.id] for c in cases])}
                          for label in specs}}
+
+
+def weights_files(label: str, options: dict | None, controller_path=None) -> dict:
+    """{file: SHA-256} of the controller and every weights file the planner ``label`` reads with ``options``."""
+    return weights_digests([controller_weights(controller_path), *files_read(label, options).values()])

@@ -117,8 +117,7 @@ class _Pass:
         self.queue = [(_priority(0, apex[0]), 0)]
         self.goals: list = []       # goal nodes found, not yet handed out
         self.banned: set = set()    # nodes whose hop Drake rejected (and so their subtrees)
-        self.expanded = bytearray(1)
-        self.nodes = self.pruned = 0
+        self.expanded, self.nodes, self.pruned = bytearray(1), 0, 0   # expanded[node] = 1 once expanded
 
     def _key(self, x, xdot):
         return (round(x / self.res.merge_x), round(xdot / self.res.merge_xdot))

@@ -21,7 +21,7 @@ the time, the state and full hybrid state there, and the trace of hops up to it.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -70,6 +70,7 @@ class Certificate:
     safety: object          # verification.margins.Margins of the run
     goal_x: float
     target_x: float
+    simulation: SimulationResult | None = field(default=None, repr=False, compare=False)  # the logged Drake run
 
     ok = True
 
@@ -147,6 +148,7 @@ class Counterexample:
     foot: tuple | None
     hybrid: dict
     trace: list
+    simulation: SimulationResult | None = field(default=None, repr=False, compare=False)  # the logged Drake run
 
     ok = False
 
@@ -240,7 +242,7 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
                        list(sim.leg_angles), [list(record.apex)] + [list(a) for a in sim.apexes],
                        deviation=float(np.max(np.abs(np.subtract(sim.footholds, record.footholds)))),
                        apex_deviation=apex_deviation, safety=margins(sim), goal_x=record.goal_x,
-                       target_x=record.target_x)
+                       target_x=record.target_x, simulation=sim)
 
 
 def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str, tolerance: float, kind: str, hop: int,
@@ -261,7 +263,7 @@ def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str, tolera
               "foothold": sim.footholds[k] if k < len(sim.footholds) else None} for k in range(hop + 1)]
     return Counterexample(mode, kind, hop, sim.failure if kind == "failure" else None, planned, actual, tolerance,
                           event.time, tuple(event.state), None if foot is None else tuple(map(float, foot)), hybrid,
-                          trace)
+                          trace, simulation=sim)
 
 
 def _hybrid_at(sim: SimulationResult, time: float, after: bool) -> np.ndarray:

@@ -67,6 +67,18 @@ class Robustness:
         codes, counts = np.unique(self.failures[self.failures != 0], return_counts=True)
         return {FailureMode(int(c)).name: int(k) for c, k in zip(codes, counts)}
 
+    def to_dict(self) -> dict:
+        """JSON-ready: the setting, the rate with its 95 % interval, the failure counts and, per draw, its apex
+        errors (hops x (x, z, xdot)), leg-angle errors (hops), outcome ("ok" or the FailureMode) and failed hop."""
+        return {"planner": self.record.planner, "noise": self.noise.to_dict(), "seed": self.seed,
+                "backend": self.backend, "hops": self.hops, "n": self.n, "successes": self.successes,
+                "success_rate": self.rate, "success_interval": list(self.interval),
+                "failures": self.failure_counts(),
+                "draws": {"apex_errors": [d.apex_errors.tolist() for d in self.draws],
+                          "angle_errors": [d.angle_errors.tolist() for d in self.draws],
+                          "outcome": [FailureMode(int(c)).name if c else "ok" for c in self.failures],
+                          "failed_hop": self.failed_hops.tolist()}}
+
     def format(self) -> str:
         lo, hi = self.interval
         n = self.noise

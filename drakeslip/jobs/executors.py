@@ -2,8 +2,8 @@
 
 Every executor yields ``(tag, fn(*args))`` for the ``(tag, args)`` tasks it is given, as they finish, and sends
 results back to the caller: nothing assumes a filesystem shared with the workers. A ``setup`` pair
-``(initializer, initargs)`` runs once in each worker process before its first task (loading weights, building
-planners), never more, so a task can use what it left in module state.
+``(initializer, initargs)`` runs in each worker process before its first task (loading weights, building
+planners), and again only when a different setup ran there since, so a task can use what it left in module state.
 
 Local workers are spawned, not forked (a child forked while torch or numba threads run can deadlock), use one
 BLAS/OpenMP thread each, and die with the process that started them: a SIGKILL of the parent reaches them
@@ -18,17 +18,18 @@ import threading
 
 EXECUTORS = ("local", "ray")
 PACKAGES = ("drakeslip", "planners", "verification")  # shipped to Ray workers
-_SETUP_DONE: set = set()
+_LAST_SETUP: list = [None]   # the setup this process ran last: what module state holds now
 
 
 def prepare(setup) -> None:
-    """Run ``setup = (initializer, initargs)`` in this process unless it already ran here."""
+    """Run ``setup = (initializer, initargs)`` in this process unless it is the one that ran here last (a setup
+    leaves its state in module globals, so another one run since has replaced it)."""
     if setup is None:
         return
     key = pickle.dumps(setup)
-    if key not in _SETUP_DONE:
+    if key != _LAST_SETUP[0]:
         setup[0](*setup[1])
-        _SETUP_DONE.add(key)
+        _LAST_SETUP[0] = key
 
 
 def call(setup, fn, tag, args):

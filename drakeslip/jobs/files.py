@@ -41,6 +41,8 @@ def read_json(path, what: str):
     path = Path(path)
     try:
         return json.loads(path.read_text())
+    except UnicodeDecodeError as exc:
+        raise ValueError(f"{what} {path} is not JSON: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
     except json.JSONDecodeError as exc:
         raise ValueError(f"{what} {path} is not valid JSON: {exc}") from exc
 
@@ -117,6 +119,25 @@ def check_digest(path) -> bool:
         raise ValueError(f"weights file {path} does not match its SHA-256 in {path.parent / MANIFEST} "
                          f"(expected {expected[:16]}..., got {actual[:16]}...): it was changed or damaged")
     return True
+
+
+def load_weights(path, what: str):
+    """The tensors and plain data of a torch weights file (``weights_only``), after ``check_digest``; a file that
+    torch cannot read raises ValueError naming ``what`` and the file (torch's warnings about a foreign file are
+    not shown: the error says it)."""
+    import warnings
+
+    import torch
+
+    check_digest(path)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            return torch.load(path, map_location="cpu", weights_only=True)
+    except FileNotFoundError:
+        raise
+    except Exception as exc:  # torch raises many types for a damaged file
+        raise ValueError(f"cannot read {what} {path}: {first_line(exc)}") from exc
 
 
 def first_line(error: BaseException) -> str:

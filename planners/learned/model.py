@@ -22,7 +22,7 @@ from dataclasses import asdict
 import torch
 from torch import nn
 
-from drakeslip.jobs.files import atomic_write, check_digest, first_line, record_digest
+from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
 
 from planners.learned.config import ModelConfig
 
@@ -84,17 +84,11 @@ def save_checkpoint(path, model: FootstepModel, extra: dict | None = None) -> No
     record_digest(path)
 
 
-def load_checkpoint(path, map_location="cpu") -> tuple[FootstepModel, dict]:
+def load_checkpoint(path) -> tuple[FootstepModel, dict]:
     """Load a checkpoint written by save_checkpoint (tensors and plain data only: ``weights_only``). A committed
     file is checked against its folder's SHA-256 manifest; a changed, corrupt or mismatched file raises ValueError
     naming it."""
-    check_digest(path)
-    try:
-        payload = torch.load(path, map_location=map_location, weights_only=True)
-    except FileNotFoundError:
-        raise
-    except Exception as err:
-        raise ValueError(f"cannot read LSTM weights file {path}: {first_line(err)}") from err
+    payload = load_weights(path, "LSTM weights file")
     if not isinstance(payload, dict) or payload.get("format") != "drakeslip-lstm/1":
         raise ValueError(f"{path} is not a drakeslip LSTM checkpoint (missing format 'drakeslip-lstm/1')")
     try:

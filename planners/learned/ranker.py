@@ -20,7 +20,7 @@ import numpy as np
 import torch
 import torch.nn as nn
 
-from drakeslip.jobs.files import atomic_write, check_digest, first_line, record_digest
+from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
 
 from planners.base import Problem
 
@@ -73,13 +73,7 @@ class FootholdRanker:
     """A trained ranker in numpy: ``scores(features)`` (higher: more room expected)."""
 
     def __init__(self, path):
-        check_digest(path)
-        try:
-            payload = torch.load(path, map_location="cpu", weights_only=True)
-        except FileNotFoundError:
-            raise
-        except Exception as err:
-            raise ValueError(f"cannot read ranker weights file {path}: {first_line(err)}") from err
+        payload = load_weights(path, "ranker weights file")
         if not isinstance(payload, dict) or payload.get("format") != FORMAT:
             raise ValueError(f"{path} is not a drakeslip ranker checkpoint (missing format {FORMAT!r})")
         try:

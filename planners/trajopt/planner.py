@@ -9,7 +9,7 @@ import numpy as np
 from drakeslip import SlipParams, Terrain
 from planners.base import FootstepSequence, Plan, Planner, Problem
 from planners.registry import files_read, planner_name
-from planners.trajopt.config import TrajoptConfig
+from planners.trajopt.config import TrajoptConfig, as_config
 from planners.trajopt.seeds import check_seed
 from planners.trajopt.solve import optimize
 
@@ -21,14 +21,15 @@ class TrajoptPlanner(Planner):
     counted when the seed finds no plan); the collocation's own evaluations of the SLIP equations are not
     step-map calls. It does not stop at ``max_time_s``: the seed planner has its own default budget and the
     solve runs to ``config.major_iterations`` (SNOPT's "Time limit" option had no effect when tried).
-    ``seed_options``: options for the seed's planner (see ``seed_footholds``)."""
+    ``seed_options``: options for the seed's planner (see ``seed_footholds``); ``config``: a TrajoptConfig or its
+    fields as a dict (``config.as_config``), as the ``trajopt@robust`` preset gives it."""
 
     name = "trajopt"
 
-    def __init__(self, seed: str = "step", config: TrajoptConfig | None = None, seed_options: dict | None = None,
-                 **budget):
+    def __init__(self, seed: str = "step", config: TrajoptConfig | dict | None = None,
+                 seed_options: dict | None = None, **budget):
         super().__init__(**budget)
-        self.config = config or TrajoptConfig()
+        self.config = as_config(config)
         check_seed(seed, seed_options, self.config)
         self.seed, self.seed_options = seed, seed_options
 
@@ -39,8 +40,8 @@ class TrajoptPlanner(Planner):
         if planner_name(seed) == "cold":
             return {}
         seed_options = dict(options.get("seed_options") or {})
-        config = options.get("config")
-        if config is not None and config.lstm_weights and planner_name(seed).startswith("lstm") \
+        config = as_config(options.get("config"))
+        if config.lstm_weights and planner_name(seed).startswith("lstm") \
                 and "weights" not in seed_options:
             seed_options["weights"] = config.lstm_weights
         return {f"seed.{k}": v for k, v in files_read(seed, seed_options).items()}

@@ -21,7 +21,8 @@ Transcription (hop i = 0..N-1; apex 0 is the given start):
   position, stays ``clearance`` above every cell before its segment (checked where it enters the segment,
   where it is lowest over them) and above the cell under it at apex (no trip);
 * footholds stay ``edge_margin`` inside their segment; apex speeds lie in [min_speed, max_speed]; the last apex
-  lies ``target_margin`` past the plan's target (the hopper gets past it, with room for the open-loop drift).
+  lies ``target_margin`` past the plan's target (the hopper gets past it, with room for the open-loop drift);
+* with positive margin weights, the margin variables and their bounds at every knot (``margins.py``).
 
 The collocation defects and the clearance are Python constraints evaluated on dual numbers (``autodiff.py``);
 the simple algebraic constraints are symbolic expressions that Drake evaluates in C++. The cost is the one
@@ -47,6 +48,7 @@ from planners.trajopt.autodiff import Dual, dual_constraint, generic
 from planners.trajopt.collocation import defect_sparsity, interior_leg_lengths, stance_defects
 from planners.trajopt.config import ANGLE_SCALE, EDGE_SCALE, SPEED_SCALE, TrajoptConfig, TrajoptError
 from planners.trajopt.guess import Guess
+from planners.trajopt.margins import add_margins, knot_margins
 from planners.trajopt.segments import Segment, max_height, max_heights
 
 
@@ -186,6 +188,7 @@ class SlipTrajopt:
             variables, fn, m = self._clearance(k)
             add("clearance", prog.AddConstraint(fn, np.full(m, cfg.clearance), np.full(m, np.inf), variables))
         self._add_costs()
+        self.margins = add_margins(self)
         self.build_time_s = time.perf_counter() - t0
 
     def apex_before(self, i: int):
@@ -287,6 +290,8 @@ class SlipTrajopt:
         for i in range(self.N):
             put(self.S[i], guess.stance[i])
         put(self.A, guess.apexes[1:])
+        for name, var in self.margins.items():  # the guess's own margins (at least 0, their lower bound)
+            put(var, max(knot_margins(self, x)[name], 0.0))
         return x
 
     def violations(self, x: np.ndarray) -> dict:

@@ -154,8 +154,8 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     history, start_epoch, best = [], 0, math.inf
     if cfg.checkpoint and os.path.exists(cfg.checkpoint):
-        model, payload = load_checkpoint(cfg.checkpoint, map_location=cfg.device)
-        model.train()
+        model, payload = load_checkpoint(cfg.checkpoint)
+        model = model.to(cfg.device).train()   # the optimizer's state follows its parameters' device
         opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         opt.load_state_dict(payload["optimizer"])
         history, start_epoch, best = payload["history"], payload["epoch"] + 1, payload["best_val"]
