@@ -122,3 +122,18 @@ def profile(spec: str) -> NoiseProfile:
     if not (k >= 0 and k == k and k != float("inf")):
         raise ValueError(f"noise scale in {spec!r} must be a finite number >= 0")
     return PROFILES[name].scaled(k)
+
+
+def describe(noise: NoiseProfile) -> str:
+    """A profile's name as ``profile`` reads it (``realistic``, ``realistic*0.5``), or "custom"."""
+    for name, named in PROFILES.items():
+        if noise == named:
+            return name
+    values = lambda p: np.array([*p.apex, p.leg_angle, p.stiffness, p.mass, p.friction, p.heights, p.edges])
+    for name, named in PROFILES.items():
+        ref = values(named)
+        if ref.any():
+            k = float(values(noise)[ref > 0][0] / ref[ref > 0][0])
+            if np.allclose(values(noise), k * ref, rtol=1e-9, atol=1e-15):
+                return f"{name}*{k:g}"
+    return "custom"

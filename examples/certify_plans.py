@@ -26,8 +26,8 @@ MODES = ("angles", "footholds", "auto")
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
-    ap.add_argument("--planners", type=cli.names, default=",".join(label for label in labels() if planner_name(label) != "trajopt"),
-                    help="planner labels, comma-separated")
+    searched = [label for label in labels() if planner_name(label) != "trajopt"]   # trajopt: trajopt_warmstart.py
+    ap.add_argument("--planners", type=cli.names, default=",".join(searched), help="planner labels, comma-separated")
     ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
     ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")
     ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")

@@ -24,19 +24,9 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
-from drakeslip.noise import PROFILES, profile
+from drakeslip.noise import PROFILES
 from planners.closed_loop import ClosedLoopConfig
 from planners.registry import check_label, label_options, replanning_period
-
-
-def noise_profile(text: str):
-    """--noise: a profile by name (or NAME*K)."""
-    import argparse
-
-    try:
-        return profile(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
 
 
 def main(argv=None) -> int:
@@ -57,7 +47,7 @@ def main(argv=None) -> int:
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the label's preset's "
                          f"period, else {ClosedLoopConfig.executed_per_plan}, the paper's)")
-    ap.add_argument("--noise", type=noise_profile, default="none",
+    ap.add_argument("--noise", type=cli.noise_profile, default="none",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--backend", choices=("drake", "fast"), default="drake",

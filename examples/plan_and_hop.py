@@ -1,7 +1,12 @@
-"""Plan footsteps over rough terrain and hop there: a planner in the receding-horizon loop, each plan's first 3
-footholds executed by the learned controller on the Drake hybrid simulator, to the goal.
+"""Plan footsteps over rough terrain and hop there: a planner in the receding-horizon loop, the first footholds
+of each plan executed by the learned controller on the Drake hybrid simulator, replanning until the goal.
 
     python3 examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
+
+By default the robot is an imperfect one and the planner keeps margins for it: the `realistic` noise profile
+(drakeslip/noise.py: the apex it is told is off by 5 mm and 2 cm/s, the leg by 0.005 rad, its spring, mass and
+friction are not the model's, the terrain map is off by 1 cm) and the robust Step-space preset `step@robust`,
+replanning at every apex. `--planner step --noise none --executed 3` is the paper's setting on a perfect robot.
 
 Writes a figure of the terrain, the body path, the planned and the executed footholds; --html also writes a
 Meshcat replay of the run (self-contained HTML: the executed footholds against the planned ones, the plans'
@@ -11,11 +16,13 @@ Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed h
 from __future__ import annotations
 
 import sys
+from dataclasses import asdict
 
 from drakeslip.jobs import cli
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.closed_loop import EXECUTED_PER_PLAN
-from planners.registry import check_label
+from drakeslip.noise import PROFILES, describe
+from planners.registry import check_label, replanning_period
 
 FIGURE = (".png", ".pdf", ".svg")
 
@@ -24,7 +31,13 @@ def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--terrain", default="mixed", choices=sorted(TERRAIN_FAMILIES), help="terrain family")
     ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed")
-    ap.add_argument("--planner", default="step", help="planner label (a name, a preset or NAME@VARIANT)")
+    ap.add_argument("--planner", default="step@robust", help="planner label (a name, a preset or NAME@VARIANT)")
+    ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
+                    help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py)")
+    ap.add_argument("--noise-seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
+    ap.add_argument("--executed", type=cli.positive_int, default=None,
+                    help="footholds of each plan executed before replanning (default: the planner preset's "
+                         f"period, else {EXECUTED_PER_PLAN}, the paper's)")
     ap.add_argument("--speed", type=cli.positive, default=2.0, help="initial apex forward speed [m/s]")
     ap.add_argument("--height", type=cli.positive, default=0.9, help="initial apex height above the ground [m]")
     ap.add_argument("--goal", type=cli.number(0.5, 19.0), default=10.0, help="goal x [m] (the terrain ends at 20 m)")
@@ -49,16 +62,19 @@ def main(argv=None) -> int:
     cli.announce(argv)
     terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
     apex = ApexState(0.0, terrain.height_at(0.0) + args.height, args.speed)
-    result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, ClosedLoopConfig())
+    executed = args.executed or replanning_period(args.planner) or EXECUTED_PER_PLAN
+    config = ClosedLoopConfig(executed_per_plan=executed, noise=args.noise, seed=args.noise_seed)
+    result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, config)
 
     for i, p in enumerate(result["plans"]):
         steps = " ".join(f"{x:.2f}" for x in p["footholds"])
         print(f"plan {i}: from x={p['apex'][0]:.2f}, {p['ode_calls']} ODE calls, {1e3 * p['t_plan_s']:.1f} ms: "
               f"{steps or p['message']}")
     outcome = "reached the goal" if result["success"] else f"failed: {result['failure']}"
-    print(f"{args.planner} on {args.terrain} seed {args.seed}: {outcome} at x = {result['final_x']:.2f} "
-          f"after {len(result['plans'])} plans")
-    sim = replay(result, apex, terrain, params, controller)
+    noise = "no noise" if args.noise.silent else f"noise {describe(args.noise)}"
+    print(f"{args.planner} (replanning every {executed} hops, {noise}) on {args.terrain} seed {args.seed}: "
+          f"{outcome} at x = {result['final_x']:.2f} after {len(result['plans'])} plans")
+    sim = replay(result, apex, terrain, SlipParams(**result.get("executed_params", asdict(params))))
     write_figure(sim, result, args)
     if args.html:
         write_html(sim, result, planner.plans, args)
@@ -77,15 +93,15 @@ class Recorder:
         return plan
 
 
-def replay(result: dict, apex, terrain, params, controller):
-    """One logged Drake run of every commanded foothold, for the figure (the loop ran it in pieces; the same
-    controller from the same apexes gives the same hops)."""
+def replay(result: dict, apex, terrain, params):
+    """One logged Drake run of the leg angles the loop's hops reached, on the hopper that ran them, for the figure
+    (the loop ran the same hops in pieces, each from the apex the last one reached)."""
     from drakeslip.rollout import rollout
 
-    commanded = [x for p in result["plans"] if "executed" in p for x in p["footholds"][:EXECUTED_PER_PLAN]]
-    if not commanded:
+    angles = [a for p in result["plans"] for a in p.get("leg_angles", [])]
+    if not angles:
         return None
-    return rollout(apex, terrain, params, footholds=commanded, controller=controller, log=True).simulation
+    return rollout(apex, terrain, params, leg_angles=angles, log=True).simulation
 
 
 def write_figure(sim, result, args):
@@ -100,13 +116,15 @@ def write_figure(sim, result, args):
         terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
         ax = new_axes((12, 3.5))
         plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
-    planned = np.array([x for p in result["plans"] for x in p["footholds"][:EXECUTED_PER_PLAN]])
+    planned = np.array([x for p in result["plans"] for x in p["footholds"][:len(p.get("executed", []))]])
     if planned.size:
         ax.plot(planned, terrain.height_at(planned) + 0.04, "v", color="#2a7ab0", ms=6, mec="black",
                 label="planned footholds", zorder=6)
     ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
-    ax.set_title(f"{args.planner} planner + controller on Drake, {args.terrain} terrain seed {args.seed}: {outcome}")
+    noise = "perfect robot" if args.noise.silent else f"noise {describe(args.noise)}"
+    ax.set_title(f"{args.planner} planner + controller on Drake ({noise}), {args.terrain} terrain seed {args.seed}: "
+                 f"{outcome}")
     ax.figure.legends.clear()
     ax.figure.legend(loc="outside lower center", fontsize=8, ncols=8, frameon=False)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -121,11 +139,10 @@ def write_html(sim, result, plans, args):
     if sim is None:
         print("no replay: no foothold was commanded")
         return
-    k = EXECUTED_PER_PLAN  # what replay() commanded of each executed plan
-    executed = [plan for plan, record in zip(plans, result["plans"]) if "executed" in record]
+    executed = [(plan, len(record["executed"])) for plan, record in zip(plans, result["plans"]) if "executed" in record]
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
-    write_replay(sim, args.html, planned_footholds=[x for plan in executed for x in plan.footholds[:k]],
-                 predicted_apexes=[a for plan in executed for a in plan.apexes[:k]],
+    write_replay(sim, args.html, planned_footholds=[x for plan, k in executed for x in plan.footholds[:k]],
+                 predicted_apexes=[a for plan, k in executed for a in plan.apexes[:k]],
                  title=f"plan_and_hop.py: {args.planner} on {args.terrain} terrain seed {args.seed}, {outcome}")
     print(f"replay: {args.html}")
 

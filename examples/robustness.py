@@ -17,25 +17,17 @@ Exit status: 0 when the draws ran, 2 for a usage or input error.
 """
 from __future__ import annotations
 
-import argparse
 import sys
 import time
 
 from drakeslip.jobs import cli
-from drakeslip.noise import PROFILES, profile
-
-
-def noise_profile(text: str):
-    try:
-        return profile(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
+from drakeslip.noise import PROFILES
 
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
-    ap.add_argument("--noise", type=noise_profile, default="realistic",
+    ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
     ap.add_argument("--samples", type=cli.positive_int, default=1000, help="Monte Carlo draws")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the draws")

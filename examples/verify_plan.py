@@ -27,7 +27,7 @@ TOLERANCE = 0.01  # verification.plan_check.TOLERANCE, here so that --help impor
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/1 JSON)")
+    ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 or /1 JSON)")
     ap.add_argument("--mode", choices=MODES, default="auto",
                     help="angles: the plan's leg angles open loop; footholds: its footholds through the controller; "
                          "auto: angles when the plan has them all")

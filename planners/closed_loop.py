@@ -10,7 +10,7 @@ config's seed and the case's id, so a case gives the same result in any process 
 from __future__ import annotations
 
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
@@ -53,8 +53,9 @@ class ClosedLoopConfig:
 def run_case(planner, controller, case, goal_x: float, params: SlipParams,
              config: ClosedLoopConfig = ClosedLoopConfig()) -> dict:
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the receding-horizon loop; returns
-    {"id", "success", "failure", "final_x", "plans"}, one record per planning call in "plans" (with the apex the
-    planner was told in "seen_apex" when there is state noise)."""
+    {"id", "success", "failure", "final_x", "plans"}, one record per planning call in "plans" (with the footholds
+    and leg angles executed, and the apex the planner was told in "seen_apex" under noise; "executed_params" is
+    then the hopper that ran)."""
     apex, terrain = ApexState(*map(float, case.apex)), case.terrain
     noise, rng = config.noise, np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
     # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
@@ -95,6 +96,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
                       apex_errors=apex_errors, angle_errors=angle_errors,
                       sensed_terrain=None if noise.silent else sensed)
         record["executed"] = [float(x) for x in run.footholds]
+        record["leg_angles"] = [float(a) for a in run.leg_angles]   # as the leg reached them (with its errors)
         hops += len(footholds)
         if run.failure is not None:
             failure = run.failure.name
@@ -107,4 +109,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
         if hops >= config.max_hops:
             failure = "HOP_CAP"
             break
-    return {"id": case.id, "success": failure is None, "failure": failure, "final_x": final_x, "plans": plans}
+    result = {"id": case.id, "success": failure is None, "failure": failure, "final_x": final_x, "plans": plans}
+    if not noise.silent:
+        result["executed_params"] = asdict(executed)   # the mismatched hopper this case ran
+    return result

@@ -186,8 +186,8 @@ def test_plan_and_hop_writes_a_replay_that_renders(run_script, tmp_path):
     code, _, err = run_script("plan_and_hop", "--out", tmp_path / "p.png", "--html", tmp_path / "p.htm")
     assert code == 2 and "must end in .html" in err and len(err.splitlines()) == 1
     page = tmp_path / "replay.html"
-    code, out, _ = run_script("plan_and_hop", "--terrain", "step", "--seed", "3", "--goal", "3", "--out",
-                              tmp_path / "p.png", "--html", page)
+    code, out, _ = run_script("plan_and_hop", "--terrain", "step", "--seed", "3", "--goal", "3", "--planner", "step",
+                              "--noise", "none", "--executed", "3", "--out", tmp_path / "p.png", "--html", page)
     assert code == 0 and f"replay: {page}" in out
     text = page.read_text()
     assert "plan_and_hop.py: step on step terrain seed 3, reached the goal" in text

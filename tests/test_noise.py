@@ -13,7 +13,6 @@ from drakeslip.noise import PROFILES, NoiseProfile, profile
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import make_suite
-from planners.registry import replanning_period
 from planners.search.robust import Robustness
 from verification.robustness import success_probability
 

@@ -88,6 +88,16 @@ def numbers(count: int | None, each=finite):
     return parse
 
 
+def noise_profile(text: str):
+    """An argument type: a noise profile by name, or NAME*K (drakeslip.noise.profile)."""
+    from drakeslip.noise import profile
+
+    try:
+        return profile(text)
+    except ValueError as error:
+        raise argparse.ArgumentTypeError(str(error)) from None
+
+
 def names(text: str) -> list[str]:
     """An argument type: a non-empty comma-separated list of names."""
     items = [t.strip() for t in text.split(",") if t.strip()]

@@ -137,7 +137,10 @@ def load_weights(path, what: str):
     except FileNotFoundError:
         raise
     except Exception as exc:  # torch raises many types for a damaged file
-        raise ValueError(f"cannot read {what} {path}: {first_line(exc)}") from exc
+        why = first_line(exc)
+        if why.startswith("Weights only load failed"):   # torch's advice to unpickle anything does not apply
+            why = "not a torch file of tensors and plain data"
+        raise ValueError(f"cannot read {what} {path}: {why}") from exc
 
 
 def first_line(error: BaseException) -> str:
