@@ -44,6 +44,7 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import JsonLinesStore, run, write_json
     from planners.formats.suite import load_suite
     from verification import certify
+    from verification.provenance import provenance
 
     try:
         specs = {check_label(label): None for label in args.planners}
@@ -66,15 +67,16 @@ def main(argv=None) -> int:
             records[k] = record
             bar.update()
     ordered = [records[k] for k, _ in tasks]
-    write_json(args.out, {"suite": suite.name, "mode": args.mode, "tolerance": args.tolerance, "plans": ordered})
-    print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7}  first mismatches")
+    write_json(args.out, {"suite": suite.name, "mode": args.mode, "tolerance": args.tolerance, "plans": ordered,
+                          "provenance": provenance()})
+    print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7} {'malformed':>9}  first mismatches")
     for label in specs:
         mine = [r for r in ordered if r["label"] == label]
         count = Counter(r["verdict"] for r in mine)
         kinds = Counter(r["kind"] if r["kind"] != "failure" else r["reason"].split()[0] for r in mine
                         if r["verdict"] == "counterexample")
         print(f"{label:<20} {count['certified']:>4} / {len(mine):<2} {count['counterexample']:>14} "
-              f"{count['no plan']:>7}  {', '.join(f'{k} {v}' for k, v in kinds.items()) or '-'}")
+              f"{count['no plan']:>7} {count['malformed']:>9}  {', '.join(f'{k} {v}' for k, v in kinds.items()) or '-'}")
     for r in ordered:
         if r["verdict"] != "certified":
             print(f"  {r['label']} {r['id']}: {r['verdict']}: {r['reason']}")

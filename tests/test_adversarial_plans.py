@@ -84,8 +84,10 @@ def test_a_tampered_plan_gets_a_counterexample_naming_the_first_mismatch(tmp_pat
 
 
 MALFORMED = {
-    "footholds reversed": (lambda d: d.update(footholds=d["footholds"][::-1]), "footholds must increase"),
-    "a foothold behind the one before": (move(2, -3.0), "footholds must increase"),
+    "footholds reversed": (lambda d: d.update(footholds=d["footholds"][::-1]), r"behind footholds\[0\].*two leg reaches"),
+    "a foothold 2 m behind the one before": (move(2, -4.0), r"footholds\[2\] = .* m behind footholds\[1\]"),
+    "predicted apexes going back": (lambda d: d["apexes"][2].__setitem__(0, d["apexes"][1][0] - 0.1),
+                                    r"apexes\[2\] x = .* is not past apexes\[1\]"),
     "fewer leg angles than footholds": (lambda d: d["leg_angles"].pop(), "a list of 4 entries"),
     "an apex row cut short": (lambda d: d["apexes"][1].pop(), r"apexes\[1\] must be \[x, z, xdot\]"),
     "a start apex below the terrain": (lambda d: d["apex"].update(z=-0.5), "not above the terrain"),
@@ -105,6 +107,12 @@ def test_a_plan_whose_fields_disagree_is_malformed(tmp_path, run_script, plan_do
     code, out, err = verdict(tmp_path, run_script, tampered(plan_doc, edit))
     assert code == 2 and not out and len(err.splitlines()) == 1, (out, err)
     assert __import__("re").search(message, err), err
+
+
+def test_a_slow_gait_may_step_back_a_little(plan_doc):
+    """A slow hopper can put its foot behind the last foothold (the body still moves forward): the format takes it."""
+    doc = tampered(plan_doc, lambda d: d["footholds"].__setitem__(2, d["footholds"][1] - 0.05))
+    assert PlanRecord.from_dict(doc).footholds[2] == pytest.approx(plan_doc["footholds"][1] - 0.05)
 
 
 def test_a_start_inside_a_ditch_is_malformed(plan_doc):

@@ -20,7 +20,8 @@ def prepare(specs: dict) -> None:
 
 def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float) -> dict:
     """{"label", "id", "verdict", "reason", "hops", "kind", "hop"} for the first plan of ``label`` on ``case`` (a
-    suite's case entry): "certified", "counterexample" (with its reason) or "no plan"."""
+    suite's case entry): "certified", "counterexample" (with its reason), "no plan", or "malformed" (a plan the
+    plan-file format refuses: its fields disagree, with the reason)."""
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "case", "goal_x": goal_x, "friction": friction,
                              "cases": [case]})
     c, params = suite.cases[0], SlipParams(friction=friction)
@@ -28,8 +29,11 @@ def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: s
     record = {"label": label, "id": c.id, "kind": None, "hop": None}
     if not plan.success:
         return {**record, "verdict": "no plan", "reason": plan.message, "hops": 0}
-    result = check_plan(PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params), mode, tolerance,
-                        controller=_WORKER["controller"])
+    try:
+        written = PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params)
+    except ValueError as malformed:
+        return {**record, "verdict": "malformed", "reason": str(malformed), "hops": len(plan.footholds)}
+    result = check_plan(written, mode, tolerance, controller=_WORKER["controller"])
     if result.ok:
         return {**record, "verdict": "certified", "reason": "", "hops": len(result.footholds)}
     return {**record, "verdict": "counterexample", "reason": result.reason(), "hops": len(plan.footholds),

@@ -56,11 +56,20 @@ class PlanRecord:
         if self.leg_angles.shape != n or self.apexes.shape != (n[0], 3):
             raise ValueError(f"{n[0]} footholds need {n[0]} leg angles and {n[0]} apexes, got shapes "
                              f"{self.leg_angles.shape} and {self.apexes.shape}")
-        back = np.flatnonzero(np.diff(self.footholds) <= 0)
+        # The body moves forward, and in stance the foot is at most L0 sin(atan mu) from it (inside the friction
+        # cone), so a foothold lies less than two such reaches behind the one before (a slow gait can step back).
+        reach = 2.0 * self.params.leg_length * self.params.friction / math.hypot(1.0, self.params.friction)
+        back = np.flatnonzero(np.diff(self.footholds) <= -reach)
         if back.size:
             i = int(back[0]) + 1
-            raise ValueError(f"footholds must increase (the hopper moves forward): footholds[{i}] = "
-                             f"{self.footholds[i]:g} is not past footholds[{i - 1}] = {self.footholds[i - 1]:g}")
+            raise ValueError(f"footholds[{i}] = {self.footholds[i]:g} is {self.footholds[i - 1] - self.footholds[i]:g} m "
+                             f"behind footholds[{i - 1}] = {self.footholds[i - 1]:g}: a hopper moving forward steps "
+                             f"back by less than two leg reaches (2 L0 sin(atan mu) = {reach:.3g} m)")
+        ahead = np.flatnonzero(np.diff(self.apexes[:, 0]) <= 0)   # NaN rows (no prediction) compare False
+        if ahead.size:
+            i = int(ahead[0]) + 1
+            raise ValueError(f"apexes[{i}] x = {self.apexes[i, 0]:g} is not past apexes[{i - 1}] x = "
+                             f"{self.apexes[i - 1, 0]:g}: the body moves forward")
         check_apex(self.apex, self.terrain, self.params)
         rim = self.terrain.far_rim(self.apex.x)
         if rim is not None and self.apex.z <= rim[1]:
