@@ -65,7 +65,9 @@ def markdown() -> str:
         folder = Path(folder)
         for script, args, message in PROBES:
             run = run_probe(script, args, folder)
-            shown = " ".join(args).replace(SUITE, "S").replace("{", "").replace("}", "")
+            shown = " ".join(args).replace(SUITE, "S").format(dir="TMP/out.json", bad="TMP/bad.pt",
+                                                              missing="TMP/missing.pt")
+            shown = shown.replace("TMP/out.json/../", "TMP/")
             line = run.stderr.strip().replace(str(folder), "TMP").replace("|", "\\|")
             rows.append(f"| `{script}.py {shown}` | 2, one line | {run.returncode}: `{line}` |")
     return "\n".join(rows)

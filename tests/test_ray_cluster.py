@@ -20,7 +20,8 @@ from planners.formats.suite import make_suite  # noqa: E402
 pytestmark = pytest.mark.slow
 
 NODES = 2
-TIMINGS = ("t_plan_s", "t_plan_mean_s", "t_plan_median_s", "time_s", "time_s_median", "seconds", "train_seconds")
+TIMINGS = ("t_plan_s", "t_plan_mean_s", "t_plan_median_s", "time_s", "time_s_median", "seconds", "train_seconds",
+           "provenance")   # a run's provenance holds its date
 
 
 @pytest.fixture(scope="module")
@@ -44,7 +45,7 @@ def suite():
 
 
 def untimed(value):
-    """``value`` without its wall-clock timings, which differ from run to run."""
+    """``value`` without its wall-clock timings and its provenance, which differ from run to run."""
     if isinstance(value, dict):
         return {k: untimed(v) for k, v in value.items() if k not in TIMINGS}
     if isinstance(value, list):
