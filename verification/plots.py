@@ -106,8 +106,8 @@ def success_figure(runs: list, path, paper: dict | None = None):
     ax.set_xlabel("planner")
     ax.grid(axis="y", alpha=0.3)
     fig.legend(fontsize=8, loc="outside lower center", ncols=2, frameon=False)
-    ax.set_title(f"Success rate per planner ({', '.join(labels)}) on suite "
-                 f"{', '.join(dict.fromkeys(r['suite'] for r in runs))}", fontsize=10)
+    ax.set_title(wrapped(f"Success rate per planner ({', '.join(labels)}) on suite "
+                         f"{', '.join(dict.fromkeys(r['suite'] for r in runs))}"), fontsize=10)
     return save(fig, path)
 
 
@@ -143,8 +143,8 @@ def cost_figure(runs: list, path):
         axes[0, 0].plot([], [], "s", color=f"C{j}", alpha=0.6, ms=10, label=f"{name} ({n} planning calls)")
     fig.legend(fontsize=8, loc="outside lower center", ncols=2, frameon=False)
     axes[1, 0].set_xlabel("planner (boxes: quartiles; whiskers: 1.5 IQR; dots: beyond)")
-    axes[0, 0].set_title(f"Work per planning call: {', '.join(labels)} on suite "
-                         f"{', '.join(dict.fromkeys(r['suite'] for r in runs))}", fontsize=10)
+    axes[0, 0].set_title(wrapped(f"Work per planning call: {', '.join(labels)} on suite "
+                                 f"{', '.join(dict.fromkeys(r['suite'] for r in runs))}"), fontsize=10)
     return save(fig, path)
 
 
@@ -161,6 +161,13 @@ def noise_runs(runs: list) -> dict:
     return {key: sorted(points) for key, points in out.items()}
 
 
+def wrapped(title: str, width: int = 100) -> str:
+    """A title broken into lines of at most ``width`` characters (a long list of planners runs off the figure)."""
+    import textwrap
+
+    return "\n".join(textwrap.wrap(title, width))
+
+
 def noise_figure(runs: list, path):
     """Success rate [%] against the noise scale K of ``realistic*K`` (0 = noiseless), one line per planner
     label (and suite) run at two scales or more, with its 95 % Wilson band."""
@@ -168,7 +175,7 @@ def noise_figure(runs: list, path):
     if not points:
         raise ValueError("no planner run at two or more noise scales realistic*K to plot against the scale")
     suites = list(dict.fromkeys(suite for suite, _ in points))
-    fig, axes = figure((7.5, 4.8))
+    fig, axes = figure((9.5, 4.8))
     ax = axes[0, 0]
     for i, ((suite, label), rows) in enumerate(points.items()):
         k, s, n = (np.array(v) for v in zip(*rows))
@@ -183,9 +190,9 @@ def noise_figure(runs: list, path):
     ax.set_ylabel("success rate [%]  (band: 95 % Wilson)")
     ax.set_ylim(-3, 103)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8, loc="best")
-    ax.set_title(f"Success against noise: {', '.join(dict.fromkeys(l for _, l in points))} on suite "
-                 f"{', '.join(suites)}", fontsize=10)
+    fig.legend(fontsize=8, loc="outside right center", frameon=False)
+    ax.set_title(wrapped(f"Success against noise: {', '.join(dict.fromkeys(l for _, l in points))} on suite "
+                         f"{', '.join(suites)}"), fontsize=10)
     return save(fig, path)
 
 
