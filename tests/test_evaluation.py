@@ -57,6 +57,7 @@ def test_suite_that_is_not_json(tmp_path):
         load_suite(path)
 
 
+@pytest.mark.slow  # an end-to-end run of the script in a fresh interpreter
 def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     suite_path = tmp_path / "suite.json"
     save_suite(make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.9,)), suite_path)

@@ -205,6 +205,7 @@ def test_cli_writes_the_results_format_and_resumes(tmp_path, monkeypatch, run_sc
     assert again["cases"] == results["cases"]
 
 
+@pytest.mark.slow  # spawns worker processes that import and compile everything
 def test_two_processes_give_the_verdicts_of_one():
     suite = make_suite("ditch", 7, 1, speeds=(1.5, 2.5), heights=(0.9,))
     runs = [mcs.check_suite(suite, list(suite.cases), None, Budget(20000, max_time_s=60.0), progress=False,

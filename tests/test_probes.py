@@ -50,11 +50,14 @@ def expected(message: str, folder: Path) -> str:
 
 
 @pytest.mark.parametrize("script, args, message", PROBES, ids=[f"{s} {' '.join(a[-2:])}" for s, a, _ in PROBES])
-def test_a_bad_argument_exits_2_in_one_line_before_any_work(tmp_path, script, args, message):
-    run = run_probe(script, args, tmp_path)
-    assert run.returncode == 2, (run.returncode, run.stderr[-800:])
-    assert len(run.stderr.splitlines()) == 1 and expected(message, tmp_path) in run.stderr, run.stderr
-    assert "reproduce with" not in run.stdout + run.stderr   # refused before the run was announced
+def test_a_bad_argument_exits_2_in_one_line_before_any_work(tmp_path, run_script, script, args, message):
+    (tmp_path / "bad.pt").write_bytes(b"\x80not a weights file" + bytes(82))
+    (tmp_path / "out.json").mkdir()
+    fill = {"dir": str(tmp_path / "out.json"), "bad": str(tmp_path / "bad.pt"), "missing": str(tmp_path / "missing.pt")}
+    code, out, err = run_script(script, *(a.format(**fill) for a in args))   # in this process: no start-up cost
+    assert code == 2, (code, err[-800:])
+    assert len(err.splitlines()) == 1 and expected(message, tmp_path) in err, err
+    assert "reproduce with" not in out + err   # refused before the run was announced
 
 
 def markdown() -> str:

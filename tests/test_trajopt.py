@@ -295,6 +295,7 @@ def test_as_a_planner_it_returns_the_optimized_plan():
     assert step_seeded.success and step_seeded.ode_calls >= seed_calls + len(step_seeded.footholds)
 
 
+@pytest.mark.slow  # two trajectory optimizations and their Drake checks, twice
 def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
     """examples/trajopt_warmstart.py on a one-case suite: the issue's JSON format, a verified cold start, a
     rerun served from the case cache, and a bad --starts refused with the bad value named."""
