@@ -85,7 +85,7 @@ def test_a_tampered_plan_gets_a_counterexample_naming_the_first_mismatch(tmp_pat
 
 MALFORMED = {
     "footholds reversed": (lambda d: d.update(footholds=d["footholds"][::-1]), r"behind footholds\[0\].*two leg reaches"),
-    "a foothold 2 m behind the one before": (move(2, -4.0), r"footholds\[2\] = .* m behind footholds\[1\]"),
+    "a foothold 4 m back, 2.1 m behind the one before": (move(2, -4.0), r"footholds\[2\] = .* m behind footholds\[1\]"),
     "predicted apexes going back": (lambda d: d["apexes"][2].__setitem__(0, d["apexes"][1][0] - 0.1),
                                     r"apexes\[2\] x = .* is not past apexes\[1\]"),
     "fewer leg angles than footholds": (lambda d: d["leg_angles"].pop(), "a list of 4 entries"),
