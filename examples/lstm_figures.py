@@ -12,8 +12,6 @@ Exit status: 0 when both figures were written, 2 for a usage or input error (e.g
 """
 from __future__ import annotations
 
-import argparse
-import os
 import sys
 
 import numpy as np
@@ -23,20 +21,6 @@ from drakeslip.jobs import cli
 from planners.checkpoints import PAPER_WEIGHTS
 
 FIGURES = ("fig1_lstm_steps.png", "fig3_second_step.png")
-
-
-def output_folder(text: str):
-    """cli.output_folder, and the folder (or the nearest part of its path that exists) is writable: checked up
-    front, made only when the files are written."""
-    path = cli.output_folder(text)
-    for part in (path, *path.parents):
-        if part.exists():
-            if not part.is_dir():
-                raise argparse.ArgumentTypeError(f"cannot make the folder {text!r}: {str(part)!r} is a file")
-            if not os.access(part, os.W_OK | os.X_OK):
-                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(part)!r} is not writable")
-            break
-    return path
 COLORS = ("#2ca02c", "#ff7f0e")  # first step, fourth step (the paper's green and orange)
 
 
@@ -111,7 +95,7 @@ def fig3(planner, args):
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--out", type=output_folder, default="docs", help="folder the two figures are written to")
+    ap.add_argument("--out", type=cli.output_folder, default="docs", help="folder the two figures are written to")
     ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="seed of the mixed, ditch and step terrains")
     ap.add_argument("--weights", type=cli.input_file, default=PAPER_WEIGHTS,
                     help="LSTM weights the paper's planner runs with (the paper's model by default)")

@@ -12,27 +12,11 @@ Exit status: 0 when the suites were written, 2 for a usage error.
 """
 from __future__ import annotations
 
-import argparse
-import os
 import sys
 
 from drakeslip import TERRAIN_FAMILIES
 from drakeslip.jobs import cli
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
-
-
-def output_folder(text: str):
-    """cli.output_folder, and the folder (or the nearest part of its path that exists) is writable: checked up
-    front, made only when the files are written."""
-    path = cli.output_folder(text)
-    for part in (path, *path.parents):
-        if part.exists():
-            if not part.is_dir():
-                raise argparse.ArgumentTypeError(f"cannot make the folder {text!r}: {str(part)!r} is a file")
-            if not os.access(part, os.W_OK | os.X_OK):
-                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(part)!r} is not writable")
-            break
-    return path
 
 
 def main(argv=None) -> int:
@@ -48,7 +32,7 @@ def main(argv=None) -> int:
                     help="apex speeds of the starts, m/s, comma-separated (default: %(default)s)")
     ap.add_argument("--heights", type=cli.numbers(None, cli.positive), default=PAPER_HEIGHTS,
                     help="apex heights of the starts, m, comma-separated (default: %(default)s)")
-    ap.add_argument("--out", type=output_folder, default="suites", help="folder the suite files are written to")
+    ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
     unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
     if unknown:

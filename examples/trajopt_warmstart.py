@@ -39,6 +39,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip.jobs.files import sha256
 from planners.registry import label_options, planner_name
 from planners.trajopt.config import COLLOCATIONS, SEEDS, TrajoptConfig
 
@@ -109,21 +110,12 @@ def source_digest() -> str:
     return h.hexdigest()[:12]
 
 
-def file_digest(path) -> str:
-    """SHA-256 of a file's bytes: a retrained checkpoint at the same path must not reuse stored solves."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
-
-
 def seed_files(seed: str, options: dict | None, config: TrajoptConfig) -> dict:
     """The weights files the seed's planner reads (the trajopt planner's ``files_read``), with their digests."""
     from planners.registry import files_read
 
     files = files_read("trajopt", {"seed": seed, "seed_options": options, "config": config})
-    return {name: [path, file_digest(path)] for name, path in sorted(files.items())}
+    return {name: [path, sha256(path)] for name, path in sorted(files.items())}
 
 
 def summarize(cases: list) -> dict:

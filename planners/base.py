@@ -11,7 +11,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.params import check_count, check_number
-from drakeslip.state import as_apex
+from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
 
 # The plan aims this far short of the window's end when the goal lies beyond the window: the last footholds
@@ -135,15 +135,8 @@ class Planner(ABC):
         return plan
 
     def problem(self, apex, terrain, goal_x, params, t0: float) -> Problem:
-        if not isinstance(terrain, Terrain):
-            raise TypeError(f"terrain must be a drakeslip.Terrain, got {type(terrain).__name__}")
         params = SlipParams() if params is None else params
-        if not isinstance(params, SlipParams):
-            raise TypeError(f"params must be a drakeslip.SlipParams, got {type(params).__name__}")
-        apex = as_apex(apex)
-        ground = terrain.height_at(apex.x)
-        if apex.z <= ground:
-            raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+        apex = check_apex(apex, terrain, params)
         rim = terrain.far_rim(apex.x)
         if rim is not None and apex.z <= rim[1]:
             raise ValueError(f"apex (x={apex.x}, z={apex.z}) is inside a ditch: its far side at x={rim[0]:g} rises to "

@@ -16,6 +16,7 @@ from pathlib import Path
 from drakeslip import SlipParams
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
 from drakeslip.jobs.executors import prepare
+from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.closed_loop import ClosedLoopConfig, run_case
@@ -35,7 +36,7 @@ def controller_weights(path=None) -> str:
 def digest(path) -> str:
     """The first 16 hex digits of the SHA-256 of a file (its path when it does not exist)."""
     path = Path(path)
-    return hashlib.sha256(path.read_bytes()).hexdigest()[:16] if path.is_file() else str(path)
+    return sha256(path)[:16] if path.is_file() else str(path)
 
 
 def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path) -> str:

@@ -8,13 +8,14 @@ results of any run that used it.
 from __future__ import annotations
 
 import datetime
-import hashlib
 import os
 import platform
 import subprocess
 import sys
 from importlib import metadata
 from pathlib import Path
+
+from drakeslip.jobs.files import sha256
 
 ROOT = Path(__file__).resolve().parents[1]   # the repository (or source tree) the package runs from
 GIT_TIMEOUT_S = 5.0
@@ -51,15 +52,6 @@ def provenance() -> dict:
             "cores": os.cpu_count(),
             "date": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
             "platform": f"{platform.system()} {platform.release()} {platform.machine()}; {sys.implementation.name}"}
-
-
-def sha256(path) -> str:
-    """The SHA-256 (hex) of a file's bytes."""
-    h = hashlib.sha256()
-    with open(path, "rb") as f:
-        for block in iter(lambda: f.read(1 << 20), b""):
-            h.update(block)
-    return h.hexdigest()
 
 
 def display_path(path) -> str:

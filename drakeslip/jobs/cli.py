@@ -123,13 +123,7 @@ def output_file(*extensions: str):
             raise argparse.ArgumentTypeError(f"must end in {' or '.join(extensions)}, got {text!r}")
         if path.is_dir():
             raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name")
-        for parent in path.parents:
-            if parent.exists():
-                if not parent.is_dir():
-                    raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(parent)!r} is a file")
-                if not os.access(parent, os.W_OK):
-                    raise argparse.ArgumentTypeError(f"cannot write {text!r}: {str(parent)!r} is not writable")
-                break
+        check_writable_folder(text, path.parents, "write")
         return path
     return parse
 
@@ -139,14 +133,20 @@ def output_folder(text: str) -> Path:
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is a file, not a folder")
-    for folder in (path, *path.parents):
+    check_writable_folder(text, (path, *path.parents), "make")
+    return path
+
+
+def check_writable_folder(text: str, folders, verb: str) -> None:
+    """The first of ``folders`` (a path's parents, nearest first) that exists is a folder this process can write
+    in (and enter); else ArgumentTypeError "cannot VERB TEXT: ..."."""
+    for folder in folders:
         if folder.exists():
             if not folder.is_dir():
-                raise argparse.ArgumentTypeError(f"cannot make {text!r}: {str(folder)!r} is a file")
-            if not os.access(folder, os.W_OK):
-                raise argparse.ArgumentTypeError(f"cannot write in {text!r}: {str(folder)!r} is not writable")
-            break
-    return path
+                raise argparse.ArgumentTypeError(f"cannot {verb} {text!r}: {str(folder)!r} is a file")
+            if not os.access(folder, os.W_OK | os.X_OK):
+                raise argparse.ArgumentTypeError(f"cannot {verb} {text!r}: {str(folder)!r} is not writable")
+            return
 
 
 def add_parallel(ap: argparse.ArgumentParser, jobs: int = 1) -> None:
