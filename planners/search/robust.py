@@ -20,12 +20,14 @@ one controller call and one batched step-map call per hopper and terrain variant
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 
 import numpy as np
 
 from drakeslip import SlipParams, Terrain, step_batch
 from drakeslip.noise import PROFILES, NoiseProfile
+from drakeslip.params import check_count
 
 from planners.search.tree import clear_of_edges
 
@@ -55,7 +57,7 @@ class Robustness:
             object.__setattr__(self, "noise", NoiseProfile(**self.noise))
         for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed"):
             value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, (int, float)) or not value >= 0:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
                 raise ValueError(f"Robustness.{name} must be a non-negative number, got {value!r}")
         object.__setattr__(self, "relaxed", tuple(self.relaxed))
         for level in self.relaxed:
@@ -64,9 +66,7 @@ class Robustness:
                                  f"got {level!r}")
             replace(self, **level, relaxed=())  # checks the level's fields and values
         for name, low in (("lookahead", 0), ("depth", 1)):
-            value = getattr(self, name)
-            if isinstance(value, bool) or not isinstance(value, int) or value < low:
-                raise ValueError(f"Robustness.{name} must be an integer of at least {low}, got {value!r}")
+            object.__setattr__(self, name, check_count(getattr(self, name), f"Robustness.{name}", low))
 
     def levels(self) -> list:
         """This robustness, then each of its ``relaxed`` variants: what a planner asks for in turn when a
