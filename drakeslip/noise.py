@@ -124,16 +124,23 @@ def profile(spec: str) -> NoiseProfile:
     return PROFILES[name].scaled(k)
 
 
+def scale_of(noise: NoiseProfile, named: NoiseProfile) -> float | None:
+    """K when ``noise`` is ``named.scaled(K)`` (0 for no noise at all), else None."""
+    sizes = lambda p: np.array([*p.apex, p.leg_angle, p.stiffness, p.mass, p.friction, p.heights, p.edges])
+    v, ref = sizes(noise), sizes(named)
+    if not ref.any():
+        return None
+    k = float(v @ ref / (ref @ ref))
+    return k if np.allclose(v, k * ref, rtol=1e-9, atol=1e-15) else None
+
+
 def describe(noise: NoiseProfile) -> str:
     """A profile's name as ``profile`` reads it (``realistic``, ``realistic*0.5``), or "custom"."""
     for name, named in PROFILES.items():
         if noise == named:
             return name
-    values = lambda p: np.array([*p.apex, p.leg_angle, p.stiffness, p.mass, p.friction, p.heights, p.edges])
     for name, named in PROFILES.items():
-        ref = values(named)
-        if ref.any():
-            k = float(values(noise)[ref > 0][0] / ref[ref > 0][0])
-            if np.allclose(values(noise), k * ref, rtol=1e-9, atol=1e-15):
-                return f"{name}*{k:g}"
+        k = scale_of(noise, named)
+        if k is not None:
+            return f"{name}*{k:g}"
     return "custom"

@@ -14,7 +14,7 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from drakeslip.noise import PROFILES, NoiseProfile
+from drakeslip.noise import PROFILES, NoiseProfile, scale_of
 from planners.registry import planner_name
 from verification.report import wilson_interval
 
@@ -40,14 +40,7 @@ def save(fig, path, dpi: int = 120):
 
 def noise_scale(noise: dict) -> float | None:
     """K when the noise profile ``noise`` (a NoiseProfile.to_dict()) is ``realistic*K``, else None."""
-    ref = np.array(_vector(PROFILES["realistic"].to_dict()))
-    v = np.array(_vector(noise))
-    k = float(v @ ref / (ref @ ref))
-    return k if np.allclose(v, k * ref, rtol=1e-6, atol=1e-12) else None
-
-
-def _vector(noise: dict) -> list:
-    return [*noise["apex"], *(noise[k] for k in ("leg_angle", "stiffness", "mass", "friction", "heights", "edges"))]
+    return scale_of(NoiseProfile(**noise), PROFILES["realistic"])
 
 
 def run_name(results: dict) -> str:
