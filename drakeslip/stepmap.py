@@ -84,9 +84,57 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
     if int(stance_steps) < 4:
         raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
     kernel = fs.step_many_parallel if parallel else fs.step_many
-    out = kernel(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
-                 np.ascontiguousarray(apexes[:, 2]), angles, params.as_array(), terrain.heights, terrain.x0,
-                 terrain.cell, terrain.ditch_height, int(stance_steps))
+    return batch_result(kernel(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
+                               np.ascontiguousarray(apexes[:, 2]), angles, params.as_array(), terrain.heights,
+                               terrain.x0, terrain.cell, terrain.ditch_height, int(stance_steps)))
+
+
+def step_worlds(apexes: np.ndarray, leg_angles: np.ndarray, worlds: "Worlds", which: np.ndarray) -> BatchStepResult:
+    """Fast backend, batched across worlds: row i hops from ``apexes[i]`` with ``leg_angles[i]`` in world
+    ``which[i]`` of ``worlds`` (one compiled call however many hoppers and terrains the rows use)."""
+    from drakeslip import fast_step as fs
+
+    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
+    apexes = np.asarray(apexes, dtype=np.float64).reshape(angles.size, 3)
+    which = np.ascontiguousarray(which, dtype=np.int64).reshape(-1)
+    if which.size != angles.size or (which.size and not 0 <= which.min() <= which.max() < len(worlds.x0)):
+        raise ValueError(f"which must hold one world index in [0, {len(worlds.x0)}) per leg angle")
+    if not (np.all(np.isfinite(angles)) and np.all(np.abs(angles) < math.pi / 2) and np.all(np.isfinite(apexes))):
+        raise ValueError("step_worlds: apexes must be finite and leg angles finite and within (-pi/2, pi/2)")
+    return batch_result(fs.step_many_worlds(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
+                                            np.ascontiguousarray(apexes[:, 2]), angles, which, worlds.params,
+                                            worlds.heights, worlds.x0, worlds.cell, worlds.ditch_height,
+                                            int(fs.STANCE_STEPS)))
+
+
+@dataclass(frozen=True)
+class Worlds:
+    """Variants of one terrain and hopper for ``step_worlds``: world j hops with the parameters ``params[j]``
+    (``SlipParams.as_array``) over heights ``heights[j]`` starting at ``x0[j]``; all share ``cell`` and
+    ``ditch_height``."""
+
+    params: np.ndarray    # (W, 6)
+    heights: np.ndarray   # (W, cells)
+    x0: np.ndarray        # (W,)
+    cell: float
+    ditch_height: float
+
+    @classmethod
+    def of(cls, variants: list) -> "Worlds":
+        """From (Terrain, SlipParams) pairs whose terrains share cell size, ditch height and cell count."""
+        terrains = [t for t, _ in variants]
+        first = terrains[0]
+        if any(t.cell != first.cell or t.ditch_height != first.ditch_height or t.heights.size != first.heights.size
+               for t in terrains):
+            raise ValueError("worlds must share the terrain's cell size, ditch height and number of cells")
+        return cls(np.stack([p.as_array() for _, p in variants]), np.stack([t.heights for t in terrains]),
+                   np.array([t.x0 for t in terrains], dtype=np.float64), first.cell, first.ditch_height)
+
+
+def batch_result(out: np.ndarray) -> BatchStepResult:
+    """The compiled kernels' (N, N_OUT) output as columns."""
+    from drakeslip import fast_step as fs
+
     return BatchStepResult(failure=out[:, fs.OUT_CODE].astype(np.int64), touchdown_x=out[:, fs.OUT_TD_X],
                            next_x=out[:, fs.OUT_X], next_z=out[:, fs.OUT_Z], next_xdot=out[:, fs.OUT_XDOT],
                            end_zdot=out[:, fs.OUT_ZDOT], time=out[:, fs.OUT_TIME],

@@ -120,11 +120,13 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.controller.check_params(problem.params)
         attempts = []
         for r in self.robustness_levels():
+            # a lazy search draws the same samples whatever its branching, so a robust level tries it once
+            branchings = self.attempts[:1] if r is not None and self.lazy else self.attempts
             attempts += [(f"{attempt_name(r)}B={b}", lambda b=b, r=r: self._search(problem, b, r))
-                         for b in self.attempts]
-            if self.grid_fallback:  # the whole grid, as Step-space searches it
+                         for b in branchings]
+            if self.grid_fallback and r is None:  # the whole grid, as Step-space searches it
                 attempts += [(f"{attempt_name(r)}grid {s or problem.terrain.cell / 4:g} m",
-                              lambda s=s, r=r: StepSpacePlanner._search(self, problem, s, r)) for s in self.spacings]
+                              lambda s=s, r=r: StepSpacePlanner._search(self, problem, s, r)) for s in self.grids(r)]
         return run_attempts(self, problem, attempts)
 
     def _search(self, problem, branching, robust=None):
@@ -132,7 +134,6 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         terrain, params = problem.terrain, problem.params
         rng = np.random.default_rng(self.seed)
         draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
-        flights: dict = {}  # a robust node's apex -> the particles that flew there (planners/search/robust.py)
 
         def expand(tree, node) -> Children:
             """Simulate the node's next ``branching`` admissible candidates in LSTM-weighted random order (a
@@ -159,10 +160,6 @@ class LSTMGuidedPlanner(StepSpacePlanner):
                 tried += batch.tolist()
                 ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
                 calls += batch.size
-                if robust is not None and tree.depth[node] < robust.depth:
-                    ok[batch], extra = self.robust(robust, problem, tree, node, x_l[batch], ok[batch], apexes[batch],
-                                                   flights)
-                    calls += extra
                 if ok[batch].any():
                     break
             idx = np.sort(np.array(tried, dtype=np.int64))
@@ -170,7 +167,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             children.more = bool(d["pos"] < order.size or d["ready"])
             return children
 
-        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+        return best_first(problem, expand, self.weights, self.n_sequences, self.search_budget(robust),
+                          self.admission(problem, robust))
 
 
 def weighted_order(p: np.ndarray, rng) -> np.ndarray:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from dataclasses import replace
 
 import numpy as np
 
@@ -30,8 +31,10 @@ class StepSpacePlanner(Planner):
 
     ``robustness`` (a ``planners.search.robust.Robustness``, or its fields as a dict) keeps only children that
     also work in its perturbed scenarios (state, actuation, model and terrain errors) and leave the hopper where
-    it can go on, so the plan keeps the margins a noisy robot needs; when no robust sequence is found the search
-    is retried without it (``fallback_nominal``), and the plan's message says which found it.
+    it can go on, so the plan keeps the margins a noisy robot needs. The check runs when the search pops a node
+    (``admission``), so a search that finds a robust sequence straight away flies the perturbed robots over that
+    sequence alone; each robustness level searches the coarse grid within its own node budget, then the next
+    level, then (``fallback_nominal``) the nominal search; the plan's message says which found it.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
@@ -107,24 +110,31 @@ class StepSpacePlanner(Planner):
 
     def attempt_settings(self) -> list:
         """(robustness or None, grid spacing) of each search attempt, in order: the most robust first."""
-        return [(r, s) for r in self.robustness_levels() for s in self.spacings]
+        return [(r, s) for r in self.robustness_levels() for s in self.grids(r)]
+
+    def grids(self, robust: Robustness | None) -> tuple:
+        """The grid spacings searched in turn at a robustness level: the fallback grids only without one, since
+        a foothold whose neighbours a few centimetres away fail too is no robust foothold."""
+        return self.spacings if robust is None else self.spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
         terrain, params = problem.terrain, problem.params
-        flights: dict = {}  # a robust node's apex -> the particles that flew there (robust.py)
 
         def expand(tree, node) -> Children:
             apex = tree.apex[node]
             x_l = self.candidates(apex, terrain, params, spacing)
             theta = self.aim(apex, x_l, terrain, params)
             ok, apexes = self.simulate(problem, apex, x_l, theta)
-            calls = int(np.count_nonzero(~np.isnan(theta)))
-            if robust is not None and tree.depth[node] < robust.depth:
-                ok, extra = self.robust(robust, problem, tree, node, x_l, ok, apexes, flights)
-                calls += extra
-            return self.children(problem, x_l, theta, ok, apexes, calls)
+            return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
 
-        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+        return best_first(problem, expand, self.weights, self.n_sequences, self.search_budget(robust),
+                          self.admission(problem, robust))
+
+    def search_budget(self, robust: Robustness | None):
+        """The planner's budget, its nodes capped at ``robust.max_nodes`` for a robust search."""
+        if robust is None or robust.max_nodes >= self.budget.max_nodes:
+            return self.budget
+        return replace(self.budget, max_nodes=robust.max_nodes)
 
     def simulate(self, problem: Problem, apex, x_l: np.ndarray, theta: np.ndarray):
         """One batched fast step-map call (or one Drake simulation each) for the admissible (finite ``theta``)
@@ -147,20 +157,28 @@ class StepSpacePlanner(Planner):
         ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < self.tolerance) & (apexes[keep, 2] >= self.min_speed)
         return ok, apexes
 
-    def robust(self, rob: Robustness, problem: Problem, tree, node: int, x_l: np.ndarray, ok: np.ndarray,
-               apexes: np.ndarray, flights: dict):
-        """``ok`` kept only where the particles of ``rob`` that flew to ``node`` (``flights``, by apex; the
-        start's own at the root) all make the hop (``Robustness.fly``); the kept children's particles are recorded
-        in ``flights``. Returns the kept mask and the step-map calls that took."""
-        here = flights[tuple(tree.apex[node])] if node else rob.particles(tree.apex[0])
-        keep = np.flatnonzero(ok)
-        robust, ends, calls = rob.fly(here, x_l[keep], self.controller, problem.terrain, problem.params,
-                                      last=tree.depth[node] == rob.depth - 1)
-        out = np.zeros_like(ok)
-        out[keep[robust]] = True
-        for i, states in zip(keep[robust], ends[robust]):
-            flights[tuple(apexes[i])] = here.moved(states)
-        return out, calls
+    def admission(self, problem: Problem, robust: Robustness | None):
+        """The search's check of each node it pops (``best_first``'s ``admit``), None without ``robust``: the
+        particles of ``robust`` that reached the node's parent fly to its foothold (``Robustness.fly``), and a node
+        of the sequence's first ``robust.depth`` hops is kept only if all of them make it. Checked lazily, one
+        node at a time as the search reaches it, so a search that finds a robust sequence straight away flies the
+        particles over that sequence alone."""
+        if robust is None:
+            return None
+        flights = {0: robust.particles(problem.apex, problem.terrain, problem.params)}  # node -> its particles
+
+        def admit(tree, node):
+            depth = tree.depth[node]
+            if node in flights or depth > robust.depth:
+                return True, 0
+            here = flights[tree.parent[node]]
+            passed, ends, calls = robust.fly(here, np.array([tree.foothold[node]]), self.controller, problem.terrain,
+                                             last=depth == robust.depth)
+            if passed[0]:
+                flights[node] = here.moved(ends[0])
+            return bool(passed[0]), calls
+
+        return admit
 
     @staticmethod
     def children(problem: Problem, x_l, theta, ok, apexes, ode_calls: int) -> Children:

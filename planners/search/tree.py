@@ -158,17 +158,22 @@ class SearchResult:
     stop: str   # "goals", "exhausted" (queue empty), "nodes" or "ode_calls" (budget), "time" (safety limit)
 
 
-def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int, budget: Budget) -> SearchResult:
+def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int, budget: Budget,
+               admit=None) -> SearchResult:
     """Algorithm 1: expand the cheapest node, add its successful children, pop the next cheapest; a popped
     node whose foothold passes the target is a goal. So is an expanded node with a successful hop past the
     window's far edge: its sequence goes as far as the robot can see (at speed, one stride can jump the whole
     band between the target and the edge). Stops at ``n_sequences`` goals, an empty queue, the ``budget``'s
     node expansions or step-map calls, or the problem's deadline (the safety limit). ``expand(tree, node) ->
-    Children``."""
+    Children``.
+
+    ``admit(tree, node) -> (passed, step-map calls)``, if given, checks each popped node before it can be a goal
+    or be expanded (a lazy check: only the nodes the search gets to are checked); a node that fails is closed,
+    and counts as an expansion with no children."""
     tree = SearchTree(tuple(problem.apex))
     queue: list = []
     ode_calls = expansions = 0
-    node = 0
+    node = 0  # the node to expand next; None after a popped node failed ``admit``
     stop = "exhausted"
     while True:
         if expansions >= budget.max_nodes:
@@ -180,25 +185,33 @@ def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int,
         if time.perf_counter() >= problem.deadline:
             stop = "time"
             break
-        children = expand(tree, node)
-        expansions += 1
-        tree.expanded.append(node)
-        ode_calls += children.ode_calls
-        if children.beyond and node > 0:
-            tree.goals.append(node)
-            if len(tree.goals) >= n_sequences:
-                stop = "goals"
-                break
-        if children.angles.size:
-            cost = (weights.progress * np.abs(children.footholds - problem.target_x)
-                    + weights.speed * np.abs(children.apexes[:, 2]) + weights.isolation * children.isolation)
-            for i, c in zip(tree.add(node, children, cost), cost.tolist()):
-                heapq.heappush(queue, (c, i))
-        if children.more:  # back in the queue behind its own children (the root: behind everything)
-            heapq.heappush(queue, (tree.cost[node] + REEXPAND_PENALTY, node))
+        if node is not None:
+            children = expand(tree, node)
+            expansions += 1
+            tree.expanded.append(node)
+            ode_calls += children.ode_calls
+            if children.beyond and node > 0:
+                tree.goals.append(node)
+                if len(tree.goals) >= n_sequences:
+                    stop = "goals"
+                    break
+            if children.angles.size:
+                cost = (weights.progress * np.abs(children.footholds - problem.target_x)
+                        + weights.speed * np.abs(children.apexes[:, 2]) + weights.isolation * children.isolation)
+                for i, c in zip(tree.add(node, children, cost), cost.tolist()):
+                    heapq.heappush(queue, (c, i))
+            if children.more:  # back in the queue behind its own children (the root: behind everything)
+                heapq.heappush(queue, (tree.cost[node] + REEXPAND_PENALTY, node))
         node = -1
         while queue:
             _, i = heapq.heappop(queue)
+            if admit is not None:
+                passed, calls = admit(tree, i)
+                ode_calls += calls
+                if not passed:
+                    expansions += 1
+                    node = None
+                    break
             if tree.foothold[i] >= problem.target_x:
                 tree.goals.append(i)
                 if len(tree.goals) >= n_sequences:
@@ -209,7 +222,7 @@ def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int,
         if len(tree.goals) >= n_sequences:
             stop = "goals"
             break
-        if node < 0:
+        if node == -1:
             break
     return SearchResult(tree, ode_calls, expansions, stop)
 
