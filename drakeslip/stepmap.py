@@ -97,10 +97,16 @@ def step_worlds(apexes: np.ndarray, leg_angles: np.ndarray, worlds: "Worlds", wh
     angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
     apexes = np.asarray(apexes, dtype=np.float64).reshape(angles.size, 3)
     which = np.ascontiguousarray(which, dtype=np.int64).reshape(-1)
-    if which.size != angles.size or (which.size and not 0 <= which.min() <= which.max() < len(worlds.x0)):
-        raise ValueError(f"which must hold one world index in [0, {len(worlds.x0)}) per leg angle")
-    if not (np.all(np.isfinite(angles)) and np.all(np.abs(angles) < math.pi / 2) and np.all(np.isfinite(apexes))):
-        raise ValueError("step_worlds: apexes must be finite and leg angles finite and within (-pi/2, pi/2)")
+    if which.size != angles.size:
+        raise ValueError(f"which must hold one world index per leg angle: {which.size} indices for {angles.size} angles")
+    outside = which[(which < 0) | (which >= len(worlds.x0))]
+    if outside.size:
+        raise ValueError(f"which must hold world indices in [0, {len(worlds.x0)}), got {int(outside[0])}")
+    if not (np.all(np.isfinite(angles)) and np.all(np.abs(angles) < math.pi / 2)):
+        bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))][0]
+        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad)!r}")
+    if not np.all(np.isfinite(apexes)):
+        raise ValueError("apex array contains non-finite values")
     return batch_result(fs.step_many_worlds(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
                                             np.ascontiguousarray(apexes[:, 2]), angles, which, worlds.params,
                                             worlds.heights, worlds.x0, worlds.cell, worlds.ditch_height,

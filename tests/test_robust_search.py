@@ -37,8 +37,10 @@ def test_one_call_across_worlds_is_each_world_on_its_own():
         assert np.array_equal(together.failure[rows], alone.failure)
         np.testing.assert_array_equal(together.next_x[rows], alone.next_x)
         np.testing.assert_array_equal(together.touchdown_x[rows], alone.touchdown_x)
-    with pytest.raises(ValueError, match="world index"):
+    with pytest.raises(ValueError, match=r"world indices in \[0, 2\), got 2"):
         step_worlds(apexes, angles, worlds, which + 2)
+    with pytest.raises(ValueError, match="got nan"):
+        step_worlds(apexes, np.where(which == 1, np.nan, angles), worlds, which)
     with pytest.raises(ValueError, match="share"):
         Worlds.of([(terrain, params), (ds.Terrain(terrain.heights[:-1], terrain.cell, terrain.x0), params)])
 

@@ -113,8 +113,9 @@ class StepSpacePlanner(Planner):
         return [(r, s) for r in self.robustness_levels() for s in self.grids(r)]
 
     def grids(self, robust: Robustness | None) -> tuple:
-        """The grid spacings searched in turn at a robustness level: the fallback grids only without one, since
-        a foothold whose neighbours a few centimetres away fail too is no robust foothold."""
+        """The grid spacings searched in turn at a robustness level: the fallback grids only without one. They
+        exist for the narrow bands of fast nominal hops; at a robust level they would double what a level with no
+        robust sequence costs before the next one is tried."""
         return self.spacings if robust is None else self.spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
