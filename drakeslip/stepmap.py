@@ -98,7 +98,7 @@ def step_worlds(apexes: np.ndarray, leg_angles: np.ndarray, worlds: "Worlds", wh
     apexes = np.asarray(apexes, dtype=np.float64).reshape(angles.size, 3)
     which = np.ascontiguousarray(which, dtype=np.int64).reshape(-1)
     if which.size != angles.size:
-        raise ValueError(f"which must hold one world index per leg angle: {which.size} indices for {angles.size} angles")
+        raise ValueError(f"which must hold one world index per leg angle: {which.size} indices, {angles.size} angles")
     outside = which[(which < 0) | (which >= len(worlds.x0))]
     if outside.size:
         raise ValueError(f"which must hold world indices in [0, {len(worlds.x0)}), got {int(outside[0])}")

@@ -2,7 +2,6 @@
 compiled call across its own hopper and terrain, a search checks every node it pops (goals included) and closes
 those that fail, and each robustness level stays within its node budget."""
 import re
-import time
 from dataclasses import replace
 
 import numpy as np
@@ -74,12 +73,14 @@ def test_a_level_without_a_robust_sequence_stops_at_its_node_budget(controller):
     suite = make_suite("step", seed=2000, n_terrains=1)
     case, params = suite.cases[7], ds.SlipParams(friction=suite.friction)
     terrain = case.terrain.perceived(case.apex.x)
-    strict = planners.make("step", controller=controller,
-                           robustness={"sigmas": 3.0, "depth": 3, "max_nodes": 7, "relaxed": ()})
-    result = strict._search(strict.problem(case.apex, terrain, suite.goal_x, params, time.perf_counter()), None, strict.robustness)
+    strict = {"sigmas": 3.0, "depth": 3, "max_nodes": 7, "relaxed": ()}
+    alone = planners.make("step", controller=controller, robustness=strict, fallback_nominal=False)
+    result = alone.search(case.apex, terrain, suite.goal_x, params)
     assert not result.tree.goals and result.stop in ("nodes", "exhausted") and result.nodes_expanded <= 7
-    plan = strict.plan(case.apex, terrain, suite.goal_x, params)
-    assert plan.success and "found by grid" in plan.message and "robust (3 sigma, depth 3) grid 0.025 m:" in plan.message
+    planner = planners.make("step", controller=controller, robustness=strict)
+    plan = planner.plan(case.apex, terrain, suite.goal_x, params)
+    assert plan.success and "found by grid" in plan.message
+    assert "robust (3 sigma, depth 3) grid 0.025 m:" in plan.message
 
 
 def test_the_sampled_robust_search_tries_each_level_once(controller):

@@ -6,9 +6,10 @@ leg reaches the controller's angle give or take (actuation), its spring and mass
 the ground's friction is uncertain (model mismatch), and the ground is not quite where the map says
 (perception). Each particle is one such robot: it starts from ``a - e`` and is told it is ``e`` off where it is at
 every apex (its estimate is biased by ``e``), adds ``d`` to every leg angle the controller gives it, hops with
-its own stiffness and mass over the map raised or shifted by its own terrain error, and with a friction ``friction_loss`` below the model's. The errors are the corners of the noise box
-(each at +-``sigmas`` standard deviations of ``noise``, or its half-range for the model's uniform errors, one at
-a time), so the search stays deterministic.
+its own stiffness and mass over the map raised or shifted by its own terrain error, and with a friction
+``friction_loss`` below the model's. The errors are the corners of the noise box (each at +-``sigmas`` standard
+deviations of ``noise``, or its half-range for the model's uniform errors, one at a time), so the search stays
+deterministic.
 
 A search checks a node when it pops it (lazily: only the nodes the search gets to): every particle that reached
 the node's parent aims at the node's foothold with the controller from the apex it is told (as the robot would,
