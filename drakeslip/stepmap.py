@@ -67,19 +67,13 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
     from drakeslip import fast_step as fs  # compiled on first use, so importing the step map stays light
 
     params = params or SlipParams()
-    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
-    if not np.all(np.isfinite(angles)) or np.any(np.abs(angles) >= math.pi / 2):
-        bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))][0]
-        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad)!r}")
+    angles = leg_angle_array(leg_angles)
     apexes = np.asarray(apex, dtype=np.float64)
     if apexes.ndim == 1:
         check_apex(apexes, terrain, params)
         apexes = np.broadcast_to(apexes, (angles.size, 3))
-    elif apexes.shape != (angles.size, 3):
-        raise ValueError(f"apex must be one (x, z, xdot) or an array of shape ({angles.size}, 3), "
-                         f"got shape {apexes.shape}")
-    elif not np.all(np.isfinite(apexes)):
-        raise ValueError("apex array contains non-finite values")
+    else:
+        apexes = apex_rows(apexes, angles.size)
     stance_steps = fs.STANCE_STEPS if stance_steps is None else stance_steps
     if int(stance_steps) < 4:
         raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
@@ -94,19 +88,14 @@ def step_worlds(apexes: np.ndarray, leg_angles: np.ndarray, worlds: "Worlds", wh
     ``which[i]`` of ``worlds`` (one compiled call however many hoppers and terrains the rows use)."""
     from drakeslip import fast_step as fs
 
-    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
-    apexes = np.asarray(apexes, dtype=np.float64).reshape(angles.size, 3)
+    angles = leg_angle_array(leg_angles)
+    apexes = apex_rows(np.asarray(apexes, dtype=np.float64), angles.size)
     which = np.ascontiguousarray(which, dtype=np.int64).reshape(-1)
     if which.size != angles.size:
         raise ValueError(f"which must hold one world index per leg angle: {which.size} indices, {angles.size} angles")
     outside = which[(which < 0) | (which >= len(worlds.x0))]
     if outside.size:
         raise ValueError(f"which must hold world indices in [0, {len(worlds.x0)}), got {int(outside[0])}")
-    if not (np.all(np.isfinite(angles)) and np.all(np.abs(angles) < math.pi / 2)):
-        bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))][0]
-        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad)!r}")
-    if not np.all(np.isfinite(apexes)):
-        raise ValueError("apex array contains non-finite values")
     return batch_result(fs.step_many_worlds(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
                                             np.ascontiguousarray(apexes[:, 2]), angles, which, worlds.params,
                                             worlds.heights, worlds.x0, worlds.cell, worlds.ditch_height,
@@ -135,6 +124,25 @@ class Worlds:
             raise ValueError("worlds must share the terrain's cell size, ditch height and number of cells")
         return cls(np.stack([p.as_array() for _, p in variants]), np.stack([t.heights for t in terrains]),
                    np.array([t.x0 for t in terrains], dtype=np.float64), first.cell, first.ditch_height)
+
+
+def leg_angle_array(leg_angles) -> np.ndarray:
+    """``leg_angles`` as a contiguous float array, if every one is finite and inside (-pi/2, pi/2); else ValueError
+    naming the first that is not."""
+    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
+    bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))]
+    if bad.size:
+        raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad[0])!r}")
+    return angles
+
+
+def apex_rows(apexes: np.ndarray, n: int) -> np.ndarray:
+    """``apexes`` if it holds ``n`` finite (x, z, xdot) rows; else ValueError naming its shape."""
+    if apexes.shape != (n, 3):
+        raise ValueError(f"apex must be one (x, z, xdot) or an array of shape ({n}, 3), got shape {apexes.shape}")
+    if not np.all(np.isfinite(apexes)):
+        raise ValueError("apex array contains non-finite values")
+    return apexes
 
 
 def batch_result(out: np.ndarray) -> BatchStepResult:

@@ -10,6 +10,8 @@ setting in its title, has units on its axes and a legend.
 """
 from __future__ import annotations
 
+import textwrap
+
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -156,8 +158,6 @@ def noise_runs(runs: list) -> dict:
 
 def wrapped(title: str, width: int = 100) -> str:
     """A title broken into lines of at most ``width`` characters (a long list of planners runs off the figure)."""
-    import textwrap
-
     return "\n".join(textwrap.wrap(title, width))
 
 

@@ -125,8 +125,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             attempts += [(f"{attempt_name(r)}B={b}", lambda b=b, r=r: self._search(problem, b, r))
                          for b in branchings]
             if self.grid_fallback and r is None:  # the whole grid, as Step-space searches it
-                attempts += [(f"{attempt_name(r)}grid {s or problem.terrain.cell / 4:g} m",
-                              lambda s=s, r=r: StepSpacePlanner._search(self, problem, s, r)) for s in self.grids(r)]
+                attempts += [(f"grid {s or problem.terrain.cell / 4:g} m",
+                              lambda s=s: StepSpacePlanner._search(self, problem, s)) for s in self.spacings]
         return run_attempts(self, problem, attempts)
 
     def _search(self, problem, branching, robust=None):
