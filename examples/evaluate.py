@@ -26,7 +26,7 @@ import sys
 from drakeslip.jobs import cli
 from drakeslip.noise import PROFILES
 from planners.closed_loop import ClosedLoopConfig
-from planners.registry import check_label, label_options, replanning_period
+from planners.registry import check_label, label_options, loop_settings
 
 
 def main(argv=None) -> int:
@@ -47,6 +47,9 @@ def main(argv=None) -> int:
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the label's preset's "
                          f"period, else {ClosedLoopConfig.executed_per_plan}, the paper's)")
+    ap.add_argument("--map-filter", type=cli.positive_int, default=None,
+                    help="cells of the median filter the robot runs on its sensed height map, odd (default: the "
+                         f"label's preset's, else {ClosedLoopConfig.map_filter}: the map as sensed)")
     ap.add_argument("--noise", type=cli.noise_profile, default="none",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
@@ -69,10 +72,14 @@ def main(argv=None) -> int:
     if args.baseline is not None and args.baseline not in labels:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {labels}")
     executor = cli.executor(args)
-    configs = {label: ClosedLoopConfig(executed_per_plan=args.executed or replanning_period(label)
-                                       or ClosedLoopConfig.executed_per_plan, backend=args.backend,
-                                       refine=not args.mlp_only, noise=args.noise, seed=args.seed)
-               for label in labels}
+    loop_options = {name: value for name, value in (("executed_per_plan", args.executed),
+                                                     ("map_filter", args.map_filter)) if value is not None}
+    try:
+        configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
+                                           refine=not args.mlp_only, noise=args.noise, seed=args.seed)
+                   for label in labels}
+    except ValueError as error:
+        ap.error(f"--map-filter: {error}")
 
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json

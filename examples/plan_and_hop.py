@@ -22,7 +22,7 @@ from drakeslip.jobs import cli
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.closed_loop import EXECUTED_PER_PLAN
 from drakeslip.noise import PROFILES, describe
-from planners.registry import check_label, replanning_period
+from planners.registry import check_label, loop_settings
 
 FIGURE = (".png", ".pdf", ".svg")
 
@@ -62,8 +62,9 @@ def main(argv=None) -> int:
     cli.announce(argv)
     terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
     apex = ApexState(0.0, terrain.height_at(0.0) + args.height, args.speed)
-    executed = args.executed or replanning_period(args.planner) or EXECUTED_PER_PLAN
-    config = ClosedLoopConfig(executed_per_plan=executed, noise=args.noise, seed=args.noise_seed)
+    loop = loop_settings(args.planner)
+    executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
+    config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
     result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, config)
 
     for i, p in enumerate(result["plans"]):

@@ -3,8 +3,8 @@ the plan with the controller, replan from the apex reached; repeat until the bod
 plan, or the hop cap.
 
 Under a noise profile (``drakeslip.noise``) the planner and the controller are told a noisy apex and see a noisy
-terrain, the leg reaches a noisy angle, and the hops run on a hopper whose stiffness, mass and friction differ
-from the model's; the true apex evolves on the true terrain. Every draw comes from a generator seeded by the
+terrain (filtered by the robot's ``map_filter``), the leg reaches a noisy angle, and the hops run on a hopper
+whose stiffness, mass and friction differ from the model's; the true apex evolves on the true terrain. Every draw comes from a generator seeded by the
 config's seed and the case's id, so a case gives the same result in any process and any order.
 """
 from __future__ import annotations
@@ -28,7 +28,11 @@ class ClosedLoopConfig:
     """``executed_per_plan`` footholds of each plan are executed before replanning; ``backend="drake"`` executes on
     the Drake hybrid simulator (the protocol), ``"fast"`` on the fast step map (quick diagnosis: is a failure the
     planner's or the model mismatch's?); ``refine`` switches the controller's Newton polish (False: the MLP alone,
-    as in the paper, an ablation); ``noise`` the noise profile and ``seed`` the seed of its draws."""
+    as in the paper, an ablation); ``noise`` the noise profile and ``seed`` the seed of its draws; ``map_filter``
+    the cells of the median filter the robot runs on its sensed height map before the planner and the controller
+    use it (``Terrain.denoised`` with the profile's height error; 1: the map as sensed). Without the filter a
+    1 cm error per 10 cm cell makes one cell edge in six look like a step of more than 2 cm, which the planners
+    keep their footholds clear of."""
 
     executed_per_plan: int = EXECUTED_PER_PLAN
     max_hops: int = MAX_HOPS
@@ -36,18 +40,21 @@ class ClosedLoopConfig:
     refine: bool = True
     noise: NoiseProfile = field(default_factory=NoiseProfile)
     seed: int = 0
+    map_filter: int = 1
 
     def to_dict(self) -> dict:
         return {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
-                "refine": self.refine, "noise": self.noise.to_dict(), "seed": self.seed}
+                "refine": self.refine, "noise": self.noise.to_dict(), "seed": self.seed, "map_filter": self.map_filter}
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
-        for name in ("executed_per_plan", "max_hops"):
+        for name in ("executed_per_plan", "max_hops", "map_filter"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
+        if self.map_filter % 2 == 0:
+            raise ValueError(f"map_filter must be odd (a cell and as many on each side), got {self.map_filter!r}")
 
 
 def run_case(planner, controller, case, goal_x: float, params: SlipParams,
@@ -68,7 +75,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
         angle_errors = None if noise.silent else noise.angle_errors(rng, k)
         seen = apex if noise.silent else ApexState(*(np.asarray(apex) + apex_errors[0]))
         window = terrain.perceived(seen.x)
-        sensed = window if noise.silent else noise.perceived(window, rng)
+        sensed = window if noise.silent else noise.perceived(window, rng).denoised(noise.heights, config.map_filter)
         try:
             plan = planner.plan(seen, sensed, aim_x, params)
         except ValueError as refusal:  # a noisy apex the planner cannot start from (below the ground it sees)

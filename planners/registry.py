@@ -43,13 +43,15 @@ PRESETS = {
 }
 
 
-# The replanning period a preset is meant to run with (footholds executed per plan), where it is not the paper's.
-REPLANNING = {"step@robust": 1, "lstm-guided@robust": 1}
+# The closed loop a preset is meant to run in, where it is not the protocol's (planners.closed_loop.ClosedLoopConfig):
+# footholds executed per plan (replanning at every apex) and the robot's map filter (5 cells).
+LOOP_SETTINGS = {"step@robust": {"executed_per_plan": 1, "map_filter": 5},
+                 "lstm-guided@robust": {"executed_per_plan": 1, "map_filter": 5}}
 
 
-def replanning_period(label: str) -> int | None:
-    """Footholds executed before replanning that ``label`` is meant to run with, None for the evaluation's own."""
-    return REPLANNING.get(label)
+def loop_settings(label: str) -> dict:
+    """The ``ClosedLoopConfig`` fields ``label`` is meant to run with, {} for the evaluation's own."""
+    return dict(LOOP_SETTINGS.get(label, {}))
 
 
 def planner_name(label: str) -> str:

@@ -15,9 +15,11 @@ A search checks a node when it pops it (lazily: only the nodes the search gets t
 the node's parent aims at the node's foothold with the controller from the apex it is told (as the robot would,
 executing a plan's footholds) and hops. The node is robust when every particle completes the hop, touches down
 within ``landing`` of the foothold on the same level, clear of its edges by ``edge_margin``, and keeps
-``min_speed`` at its next apex; the node's particles are those next apexes. At the last robust hop every particle
-must also find at least ``lookahead`` working hops in a fan of leg angles from where it lands: a robot that
-replans from there needs a way on. A check is one controller call and one batched step-map call across the
+``min_speed`` at its next apex, that apex ``min_clearance`` leg lengths above the ground under it (lower, in a
+fast skimming gait, only leg angles near the friction cone's edge reach the ground without striking it first,
+which is where noisy runs slip and trip); the node's particles are those next apexes. At the last robust hop
+every particle must also find at least ``lookahead`` working hops in a fan of leg angles from where it lands: a
+robot that replans from there needs a way on. A check is one controller call and one batched step-map call across the
 particles' hoppers and terrains (two with the way on).
 """
 from __future__ import annotations
@@ -44,8 +46,10 @@ class Robustness:
     must land; how many hops must work from where the last robust hop leaves them (``lookahead``); how many of a
     sequence's first hops are flown by the particles (``depth``); how many nodes a search at this level may
     expand or refute (``max_nodes``: a robust sequence, when there is one, is found in a few dozen, and proving
-    there is none would take thousands); what to settle for, in turn, when no sequence survives these
-    (``relaxed``: each a dict of the fields that change)."""
+    there is none would take thousands); whether a search at this level also tries the planner's fallback grids
+    when its coarse grid finds no sequence (``fallback_grids``: at low speed the footholds every particle
+    survives lie in bands narrower than the coarse grid's 2.5 cm); what to settle for, in turn, when no sequence
+    survives these (``relaxed``: each a dict of the fields that change)."""
 
     noise: NoiseProfile = PROFILES["realistic"]
     sigmas: float = 2.0
@@ -53,18 +57,23 @@ class Robustness:
     landing: float = 0.04
     edge_margin: float = 0.01
     min_speed: float = 0.3
+    min_clearance: float = 1.0
     lookahead: int = 2
     depth: int = 2
     max_nodes: int = 30
-    relaxed: tuple = ({"depth": 1, "max_nodes": 60}, {"depth": 1, "sigmas": 1.0, "max_nodes": 60})
+    fallback_grids: bool = False
+    relaxed: tuple = ({"depth": 1, "max_nodes": 60},
+                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True})
 
     def __post_init__(self):
         if isinstance(self.noise, dict):
             object.__setattr__(self, "noise", NoiseProfile(**self.noise))
-        for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed"):
+        for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed", "min_clearance"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
                 raise ValueError(f"Robustness.{name} must be a non-negative number, got {value!r}")
+        if not isinstance(self.fallback_grids, bool):
+            raise ValueError(f"Robustness.fallback_grids must be True or False, got {self.fallback_grids!r}")
         object.__setattr__(self, "relaxed", tuple(self.relaxed))
         for level in self.relaxed:
             if not isinstance(level, dict) or "relaxed" in level or "noise" in level:
@@ -109,7 +118,8 @@ class Robustness:
         errors = np.array([e for e, *_ in rows])
         return Particles(np.asarray(apex, dtype=np.float64) - errors, errors, np.array([d for _, d, *_ in rows]),
                          np.array([variants.index((ks, ms, g)) for *_, ks, ms, g in rows]),
-                         np.array([g[1] for *_, g in rows]), worlds, math.atan(friction))
+                         np.array([g[1] for *_, g in rows]), worlds, math.atan(friction),
+                         self.min_clearance * params.leg_length)
 
     def fly(self, particles: "Particles", x_l: np.ndarray, controller, terrain: Terrain, last: bool):
         """(robust (k,) bool, next particle states (k, P, 3), step-map calls) for candidate footholds ``x_l`` on
@@ -127,6 +137,10 @@ class Robustness:
         td = r.touchdown_x.reshape(n, k)
         seen = td - particles.shift[:, None]  # where each particle landed on the map the planner sees
         ok = (r.ok.reshape(n, k) & (np.abs(td - x_l) <= self.landing) & (r.next_xdot.reshape(n, k) >= self.min_speed))
+        next_x = r.next_x.reshape(n, k)
+        aloft = np.isfinite(next_x)
+        ok[aloft] &= (r.next_z.reshape(n, k)[aloft] - terrain.height_at((next_x - particles.shift[:, None])[aloft])
+                      >= particles.clearance)
         landed = np.isfinite(td)
         ok[landed] &= (terrain.same_level(seen[landed], np.broadcast_to(x_l, td.shape)[landed])
                        & clear_of_edges(terrain, seen[landed], self.edge_margin))
@@ -161,6 +175,7 @@ class Particles:
     shift: np.ndarray
     worlds: Worlds
     friction_angle: float
+    clearance: float
 
     def moved(self, states: np.ndarray) -> "Particles":
         """The same robots at new apexes."""

@@ -113,10 +113,11 @@ class StepSpacePlanner(Planner):
         return [(r, s) for r in self.robustness_levels() for s in self.grids(r)]
 
     def grids(self, robust: Robustness | None) -> tuple:
-        """The grid spacings searched in turn at a robustness level: the fallback grids only without one. They
-        exist for the narrow bands of fast nominal hops; at a robust level they would double what a level with no
-        robust sequence costs before the next one is tried."""
-        return self.spacings if robust is None else self.spacings[:1]
+        """The grid spacings searched in turn at a robustness level: the fallback grids only without one or
+        where it asks for them (``Robustness.fallback_grids``). They exist for the narrow bands of fast nominal
+        hops; at every robust level they would double what a level with no robust sequence costs before the next
+        one is tried."""
+        return self.spacings if robust is None or robust.fallback_grids else self.spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
         terrain, params = problem.terrain, problem.params
