@@ -119,3 +119,60 @@ def test_the_robust_plan_survives_noise_that_breaks_the_nominal_one(controller):
     assert rates["step@robust"].interval[0] > 0.5 > rates["step"].interval[1]
     assert "found by robust" in planners.make("step@robust", controller=controller).plan(
         case.apex, case.terrain.perceived(case.apex.x), suite.goal_x, params).message
+
+
+@pytest.mark.parametrize("family", ["ditch", "step", "mixed"])
+def test_the_map_filter_halves_height_errors_and_keeps_every_step_and_ditch(family):
+    noise, rng = PROFILES["realistic"], np.random.default_rng(1)
+    raw, filtered = [], []
+    for seed in range(8):
+        terrain = ds.TERRAIN_FAMILIES[family](seed)
+        assert np.array_equal(terrain.denoised(noise.heights).heights, terrain.heights)   # a true map stays
+        seen = noise.perceived(terrain, rng)
+        clean = seen.denoised(noise.heights)
+        solid = terrain.heights > terrain.ditch_height
+        assert np.array_equal(clean.heights[~solid], terrain.heights[~solid]) and clean.x0 == seen.x0
+        raw.append(seen.heights[solid] - terrain.heights[solid])
+        filtered.append(clean.heights[solid] - terrain.heights[solid])
+    raw, filtered = np.concatenate(raw), np.concatenate(filtered)
+    assert np.sqrt(np.mean(filtered ** 2)) < 0.75 * np.sqrt(np.mean(raw ** 2))
+    assert np.abs(filtered).max() <= np.abs(raw).max()   # no cell takes a neighbouring level's height
+
+
+def test_the_map_filter_names_its_bad_settings():
+    terrain = ds.Terrain.flat()
+    assert terrain.denoised(0.0) is terrain and terrain.denoised(0.01, 1) is terrain
+    for kwargs, message in ((dict(sigma=float("nan")), "denoised sigma"), (dict(sigma=0.01, window=4), "odd"),
+                            (dict(sigma=0.01, window=0), "odd"), (dict(sigma=0.01, window=True), "odd")):
+        with pytest.raises(ValueError, match=message):
+            terrain.denoised(**kwargs)
+    with pytest.raises(ValueError, match="map_filter must be odd"):
+        ClosedLoopConfig(map_filter=2)
+
+
+def test_the_planner_and_the_controller_see_the_filtered_map(suite, controller):
+    class Recorder:
+        def __init__(self):
+            self.planner, self.maps = planners.make("step", controller=controller), []
+
+        def plan(self, apex, terrain, goal_x, params):
+            self.maps.append(terrain)
+            return self.planner.plan(apex, terrain, goal_x, params)
+
+    noise, params = profile("terrain"), ds.SlipParams(friction=suite.friction)
+    maps = {}
+    for window in (1, 5):
+        recorder = Recorder()
+        run_case(recorder, controller, suite.cases[0], suite.goal_x, params,
+                 ClosedLoopConfig(backend="fast", noise=noise, seed=2, map_filter=window))
+        maps[window] = recorder.maps[0]
+    # the first map is drawn before any plan, so the filtered run saw the unfiltered run's map, filtered
+    assert np.array_equal(maps[5].heights, maps[1].denoised(noise.heights, 5).heights)
+    assert not np.array_equal(maps[5].heights, maps[1].heights)
+
+
+def test_robust_presets_carry_their_closed_loop():
+    from planners.registry import loop_settings
+    assert loop_settings("step@robust") == {"executed_per_plan": 1, "map_filter": 5}
+    assert loop_settings("lstm-guided@robust")["map_filter"] == 5 and loop_settings("step") == {}
+    ClosedLoopConfig(**loop_settings("step@robust"))

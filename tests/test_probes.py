@@ -21,6 +21,7 @@ PROBES = [
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--executed", "0"], "--executed: must be an integer in [1, inf], got"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--executed", "-1"], "--executed: must be an integer in [1, inf], got"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--planners", ","], "--planners: must name at least one"),
+    ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--map-filter", "4"], "--map-filter: map_filter must be odd"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--noise", "loud"], "unknown noise profile 'loud'"),
     ("plan_and_hop", ["--friction", "-1"], "--friction: must be a finite number > 0.0, got '-1'"),
     ("plan_and_hop", ["--speed", "nan"], "--speed: must be a finite number > 0.0, got 'nan'"),

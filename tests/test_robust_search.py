@@ -92,3 +92,31 @@ def test_the_sampled_robust_search_tries_each_level_once(controller):
                             robustness={"sigmas": 3.0, "depth": 3, "max_nodes": 5, "relaxed": ()})
     plan = planner.plan(case.apex, case.terrain.perceived(case.apex.x), suite.goal_x, params)
     assert plan.message.count("robust (3 sigma, depth 3) B=") == 1 and "grid" not in plan.message.split("(after")[1]
+
+
+def test_robust_hops_keep_the_apex_a_leg_length_above_the_ground(controller):
+    """Every particle's next apex must clear the ground under it by ``min_clearance`` leg lengths: a bar no hop
+    reaches leaves every robust level empty, and the particles of a robust plan clear the default bar."""
+    suite = make_suite("step", seed=2000, n_terrains=1)
+    case, params = suite.cases[7], ds.SlipParams(friction=suite.friction)
+    terrain = case.terrain.perceived(case.apex.x)
+    plan = planners.make("step@robust", controller=controller).plan(case.apex, terrain, suite.goal_x, params)
+    assert plan.message.startswith("found by robust (2 sigma, depth 2)")
+    rob = Robustness()
+    particles = rob.particles(case.apex, terrain, params)
+    passed, ends, _ = rob.fly(particles, plan.footholds[:1], controller, terrain, last=False)
+    clearance = ends[0][:, 1] - terrain.height_at(ends[0][:, 0] - particles.shift)
+    assert passed[0] and clearance.min() >= params.leg_length
+    high = planners.make("step@robust", controller=controller, robustness={"min_clearance": 3.0})
+    assert high.plan(case.apex, terrain, suite.goal_x, params).message.startswith("found by grid")
+    with pytest.raises(ValueError, match="min_clearance"):
+        Robustness(min_clearance=-0.5)
+
+
+def test_only_the_last_robust_level_searches_the_fine_grid(controller):
+    settings = planners.make("step@robust", controller=controller).attempt_settings()
+    described = [(None if r is None else (r.sigmas, r.depth), spacing) for r, spacing in settings]
+    assert described == [((2.0, 2), None), ((2.0, 1), None), ((1.0, 1), None), ((1.0, 1), 0.01),
+                         (None, None), (None, 0.01)]
+    with pytest.raises(ValueError, match="fallback_grids"):
+        Robustness(fallback_grids="yes")
