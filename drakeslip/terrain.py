@@ -60,10 +60,11 @@ class Terrain:
         """This map with the height of each solid cell replaced by the lower median of the solid cells within
         ``window // 2`` cells of it, where at least 3 such cells exist and their median is within 3 ``sigma`` of
         the cell's own height. A sensed map whose cell heights carry independent errors of std ``sigma`` comes
-        out with errors about half as large (the median of 5), while a level change of more than 3 ``sigma`` (a
-        step, a sliver of another level beside a ditch) is kept as it is, and the lower median is always one of
-        the heights seen, so a noiseless piecewise-constant map whose levels differ by more than 3 ``sigma`` is
-        returned unchanged. Ditch cells are kept."""
+        out with errors a third smaller (rms, over 5 cells, on the suites' terrains), and adjacent cells of one
+        level mostly share a height, so they no longer look like small steps; a level change of more than
+        3 ``sigma`` (a step, a sliver of another level beside a ditch) is kept as it is, and the lower median is
+        always one of the heights seen, so a noiseless piecewise-constant map whose levels differ by more than
+        3 ``sigma`` is returned unchanged. Ditch cells are kept."""
         sigma = check_number(sigma, "denoised sigma")
         if isinstance(window, bool) or not isinstance(window, int) or window < 1 or window % 2 == 0:
             raise ValueError(f"denoised window must be a positive odd number of cells, got {window!r}")

@@ -4,8 +4,9 @@ plan, or the hop cap.
 
 Under a noise profile (``drakeslip.noise``) the planner and the controller are told a noisy apex and see a noisy
 terrain (filtered by the robot's ``map_filter``), the leg reaches a noisy angle, and the hops run on a hopper
-whose stiffness, mass and friction differ from the model's; the true apex evolves on the true terrain. Every draw comes from a generator seeded by the
-config's seed and the case's id, so a case gives the same result in any process and any order.
+whose stiffness, mass and friction differ from the model's; the true apex evolves on the true terrain. Every draw
+comes from a generator seeded by the config's seed and the case's id, so a case gives the same result in any
+process and any order.
 """
 from __future__ import annotations
 

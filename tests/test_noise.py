@@ -122,7 +122,7 @@ def test_the_robust_plan_survives_noise_that_breaks_the_nominal_one(controller):
 
 
 @pytest.mark.parametrize("family", ["ditch", "step", "mixed"])
-def test_the_map_filter_halves_height_errors_and_keeps_every_step_and_ditch(family):
+def test_the_map_filter_shrinks_height_errors_and_keeps_every_step_and_ditch(family):
     noise, rng = PROFILES["realistic"], np.random.default_rng(1)
     raw, filtered = [], []
     for seed in range(8):

@@ -19,8 +19,8 @@ within ``landing`` of the foothold on the same level, clear of its edges by ``ed
 fast skimming gait, only leg angles near the friction cone's edge reach the ground without striking it first,
 which is where noisy runs slip and trip); the node's particles are those next apexes. At the last robust hop
 every particle must also find at least ``lookahead`` working hops in a fan of leg angles from where it lands: a
-robot that replans from there needs a way on. A check is one controller call and one batched step-map call across the
-particles' hoppers and terrains (two with the way on).
+robot that replans from there needs a way on. A check is one controller call and one batched step-map call
+across the particles' hoppers and terrains (two with the way on).
 """
 from __future__ import annotations
 
