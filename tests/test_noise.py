@@ -150,7 +150,17 @@ def test_the_map_filter_names_its_bad_settings():
         ClosedLoopConfig(map_filter=2)
 
 
-def test_the_planner_and_the_controller_see_the_filtered_map(suite, controller):
+def test_the_planner_and_the_controller_see_the_filtered_map(suite, controller, monkeypatch):
+    import planners.closed_loop as loop
+    aimed_on = []
+
+    def rollout(*args, sensed_terrain=None, **kwargs):
+        aimed_on.append(sensed_terrain)
+        return real_rollout(*args, sensed_terrain=sensed_terrain, **kwargs)
+
+    real_rollout = loop.rollout
+    monkeypatch.setattr(loop, "rollout", rollout)
+
     class Recorder:
         def __init__(self):
             self.planner, self.maps = planners.make("step", controller=controller), []
@@ -166,6 +176,8 @@ def test_the_planner_and_the_controller_see_the_filtered_map(suite, controller):
         run_case(recorder, controller, suite.cases[0], suite.goal_x, params,
                  ClosedLoopConfig(backend="fast", noise=noise, seed=2, map_filter=window))
         maps[window] = recorder.maps[0]
+        assert aimed_on[0] is recorder.maps[0]   # the controller aims on the map the planner planned on
+        aimed_on.clear()
     # the first map is drawn before any plan, so the filtered run saw the unfiltered run's map, filtered
     assert np.array_equal(maps[5].heights, maps[1].denoised(noise.heights, 5).heights)
     assert not np.array_equal(maps[5].heights, maps[1].heights)
