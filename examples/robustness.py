@@ -29,6 +29,9 @@ def main(argv=None) -> int:
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
     ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
+    ap.add_argument("--map-filter", type=cli.positive_int, default=1,
+                    help="cells of the median filter each robot runs on its sensed height map, odd (1: the map as "
+                         "sensed; the robust presets' robots use 5)")
     ap.add_argument("--samples", type=cli.positive_int, default=1000, help="Monte Carlo draws")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the draws")
     ap.add_argument("--hops", type=cli.positive_int, default=None,
@@ -41,6 +44,8 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.drake > args.samples:
         ap.error(f"--drake {args.drake} is more than --samples {args.samples}")
+    if args.map_filter % 2 == 0:
+        ap.error(f"--map-filter must be odd (a cell and as many on each side), got {args.map_filter}")
 
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
@@ -61,7 +66,8 @@ def main(argv=None) -> int:
         for name, margin in nominal.margins().items():
             print(f"  {name:<15} {margin.value:9.4f} (hop {margin.hop})")
     t0 = time.perf_counter()
-    result = success_probability(record, args.samples, args.noise, args.seed, hops=args.hops)
+    result = success_probability(record, args.samples, args.noise, args.seed, hops=args.hops,
+                                 map_filter=args.map_filter)
     print(f"{time.perf_counter() - t0:.2f} s")
     print(result.format())
     if args.drake:

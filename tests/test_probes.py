@@ -32,6 +32,7 @@ PROBES = [
     ("verify_plan", ["--plan", "{bad}"], "bad.pt"),
     ("robustness", ["--plan", "{bad}"], "bad.pt"),
     ("robustness", ["--plan", "{bad}", "--noise", "realistic*-1"], "--noise"),
+    ("robustness", ["--plan", "{bad}", "--map-filter", "2"], "--map-filter must be odd"),
     ("model_check", ["--suite", SUITE, "--out", "{dir}"], "--out: '{dir}' is a folder"),
     ("make_plan", ["--suite", SUITE, "--planner", "step", "--case", "999", "--out", "{dir}/../p.json"], "--case"),
 ]

@@ -9,7 +9,7 @@ from drakeslip.controller import StepLengthController
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import make_suite
 from drakeslip.noise import NoiseProfile, profile
-from verification.robustness import confirm_on_drake, success_probability, wilson_interval
+from verification.robustness import confirm_on_drake, draw_robots, success_probability, wilson_interval
 
 NOISY = dict(noise=NoiseProfile(apex=(0.01, 0.01, 0.05), leg_angle=0.02))
 CLEAN = dict(noise=profile("none"))
@@ -76,6 +76,7 @@ def test_drake_confirms_the_same_draws(record, controller):
     (lambda r: success_probability(r, 10, NoiseProfile(leg_angle=float("nan"))), "leg_angle"),
     (lambda r: success_probability(r, 10, backend="gpu", **CLEAN), "backend"),
     (lambda r: success_probability(r, 10, **CLEAN, hops=9), r"hops must be an integer in \[1, 4\], got 9"),
+    (lambda r: success_probability(r, 10, **CLEAN, map_filter=4), "map_filter must be a positive odd number"),
     (lambda r: confirm_on_drake(success_probability(r, 5, **CLEAN), 6), r"n_small must be an integer in \[1, 5\]"),
 ])
 def test_bad_arguments_are_named(record, call, message):
@@ -93,3 +94,15 @@ def test_cli(tmp_path, record, run_script):
     assert code == 2 and "must be an object, got list" in err and len(err.splitlines()) == 1
     code, _, err = run_script("robustness", "--plan", tmp_path / "plan.json", "--noise", "realistic*nan")
     assert code == 2 and "--noise" in err and len(err.splitlines()) == 1
+
+
+def test_each_robot_filters_the_map_it_senses(record):
+    """With ``map_filter`` every draw is the same robot, aiming on its sensed map filtered; the result says so."""
+    noise = profile("terrain")
+    raw = draw_robots(record, 3, noise, seed=2, hops=2)
+    filtered = draw_robots(record, 3, noise, seed=2, hops=2, map_filter=5)
+    for a, b in zip(raw, filtered):
+        assert np.array_equal(b.sensed.heights, a.sensed.denoised(noise.heights, 5).heights)
+        assert np.array_equal(a.apex_errors, b.apex_errors) and a.params == b.params
+    assert any(not np.array_equal(a.sensed.heights, b.sensed.heights) for a, b in zip(raw, filtered))
+    assert success_probability(record, 4, noise, map_filter=5).to_dict()["map_filter"] == 5

@@ -3,9 +3,10 @@
 Each draw executes the plan's footholds through the step-length controller, as the receding-horizon loop would
 without replanning, on a robot drawn from the profile: the plan was made from an apex estimate, so the true start
 is off by the state-estimation error; at every apex the controller is told the apex with a new error and aims on
-a terrain map with the perception errors; the leg reaches the commanded angle with the actuation error; and the
-hops run on a hopper with this draw's stiffness, mass and friction. A draw succeeds when it completes the plan's
-first ``hops`` hops (all of them by default) with no failure. The same seed gives the same draws and outcomes;
+a terrain map with the perception errors (filtered over ``map_filter`` cells, as the closed loop's robot filters
+it); the leg reaches the commanded angle with the actuation error; and the hops run on a hopper with this draw's
+stiffness, mass and friction. A draw succeeds when it completes the plan's first ``hops`` hops (all of them by
+default) with no failure. The same seed gives the same draws and outcomes;
 ``confirm_on_drake`` reruns the first draws, with the same errors, on the Drake simulator.
 """
 from __future__ import annotations
@@ -46,6 +47,7 @@ class Robustness:
     draws: list
     failures: np.ndarray
     failed_hops: np.ndarray
+    map_filter: int = 1
 
     @property
     def n(self) -> int:
@@ -70,7 +72,8 @@ class Robustness:
     def to_dict(self) -> dict:
         """JSON-ready: the setting, the rate with its 95 % interval, the failure counts and, per draw, its apex
         errors (hops x (x, z, xdot)), leg-angle errors (hops), outcome ("ok" or the FailureMode) and failed hop."""
-        return {"planner": self.record.planner, "noise": self.noise.to_dict(), "seed": self.seed,
+        return {"planner": self.record.planner, "noise": self.noise.to_dict(), "map_filter": self.map_filter,
+                "seed": self.seed,
                 "backend": self.backend, "hops": self.hops, "n": self.n, "successes": self.successes,
                 "success_rate": self.rate, "success_interval": list(self.interval),
                 "failures": self.failure_counts(),
@@ -121,23 +124,26 @@ class DrakeConfirmation:
         return "\n".join(lines)
 
 
-def draw_robots(record: PlanRecord, n: int, noise: NoiseProfile, seed: int, hops: int) -> list:
-    """``n`` robots drawn from ``noise`` for the plan's first ``hops`` hops (seeded)."""
+def draw_robots(record: PlanRecord, n: int, noise: NoiseProfile, seed: int, hops: int, map_filter: int = 1) -> list:
+    """``n`` robots drawn from ``noise`` for the plan's first ``hops`` hops (seeded); each filters the terrain map it
+    senses over ``map_filter`` cells (``Terrain.denoised``, as the closed loop's robot does; 1: as sensed)."""
     rng = np.random.default_rng(seed)
     out = []
     for _ in range(n):
         errors = noise.apex_errors(rng, hops)
         start = np.asarray(record.apex) - errors[0]  # the plan's start was the estimate of the first apex
         params = noise.executed_params(record.params, rng)
-        sensed = noise.perceived(record.terrain, rng) if (noise.heights or noise.edges) else record.terrain
+        sensed = (noise.perceived(record.terrain, rng).denoised(noise.heights, map_filter)
+                  if (noise.heights or noise.edges) else record.terrain)
         out.append(Draw(start, params, sensed, errors, noise.angle_errors(rng, hops)))
     return out
 
 
 def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: int = 0, backend: str = "fast",
-                        hops: int | None = None, controller: StepLengthController | None = None) -> Robustness:
+                        hops: int | None = None, controller: StepLengthController | None = None,
+                        map_filter: int = 1) -> Robustness:
     """Success rate of ``record``'s footholds over ``n`` robots drawn from ``noise`` (see the module doc), over
-    its first ``hops`` hops (default all)."""
+    its first ``hops`` hops (default all), each robot filtering its sensed map over ``map_filter`` cells."""
     if isinstance(n, bool) or not isinstance(n, int) or n < 1:
         raise ValueError(f"n must be a positive integer, got {n!r}")
     if not isinstance(noise, NoiseProfile):
@@ -148,11 +154,13 @@ def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: i
     hops = total if hops is None else hops
     if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
         raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
+    if isinstance(map_filter, bool) or not isinstance(map_filter, int) or map_filter < 1 or map_filter % 2 == 0:
+        raise ValueError(f"map_filter must be a positive odd number of cells, got {map_filter!r}")
     controller = controller or StepLengthController.load_default()
     controller.check_params(record.params)
-    draws = draw_robots(record, n, noise, seed, hops)
+    draws = draw_robots(record, n, noise, seed, hops, map_filter)
     failures, failed = _run(record, draws, hops, controller, backend)
-    return Robustness(record, noise, seed, backend, hops, draws, failures, failed)
+    return Robustness(record, noise, seed, backend, hops, draws, failures, failed, map_filter)
 
 
 def confirm_on_drake(result: Robustness, n_small: int,
