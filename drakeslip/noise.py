@@ -84,14 +84,16 @@ class NoiseProfile:
         """(n,) errors of the leg angles reached."""
         return rng.normal(size=n) * self.leg_angle
 
-    def perceived(self, terrain: Terrain, rng: np.random.Generator) -> Terrain:
-        """The terrain as sensed: each solid cell's height off by a Gaussian error, the whole map shifted along x.
-        Ditch cells stay ditches."""
+    def perceived(self, terrain: Terrain, rng: np.random.Generator, map_filter: int = 1) -> Terrain:
+        """The terrain as sensed: each solid cell's height off by a Gaussian error, the whole map shifted along x;
+        ditch cells stay ditches. ``map_filter``: the cells of the median filter the robot runs on it
+        (``Terrain.denoised`` with this profile's height error; 1: the map as sensed)."""
         heights = terrain.heights.copy()
         solid = heights > terrain.ditch_height
         heights[solid] += rng.normal(size=int(solid.sum())) * self.heights
         shift = float(rng.normal()) * self.edges
-        return Terrain(heights, terrain.cell, terrain.x0 + shift, terrain.ditch_height)
+        return Terrain(heights, terrain.cell, terrain.x0 + shift, terrain.ditch_height).denoised(self.heights,
+                                                                                                 map_filter)
 
 
 PROFILES = {

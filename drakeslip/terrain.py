@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import math
+import numbers
 
 import numpy as np
 
@@ -66,8 +67,7 @@ class Terrain:
         always one of the heights seen, so a noiseless piecewise-constant map whose levels differ by more than
         3 ``sigma`` is returned unchanged. Ditch cells are kept."""
         sigma = check_number(sigma, "denoised sigma")
-        if isinstance(window, bool) or not isinstance(window, int) or window < 1 or window % 2 == 0:
-            raise ValueError(f"denoised window must be a positive odd number of cells, got {window!r}")
+        window = check_window(window, "denoised window")
         if sigma <= 0 or window < 3:
             return self
         h, half = self.heights, window // 2
@@ -120,6 +120,15 @@ class Terrain:
 
     def __repr__(self):
         return f"Terrain(n={self.heights.size}, cell={self.cell}, x0={self.x0})"
+
+
+def check_window(window, name: str) -> int:
+    """``window`` as an int if it is a filter window of cells: odd (a cell and as many on each side) and at least 1;
+    else ValueError naming ``name`` and the value."""
+    if isinstance(window, (bool, np.bool_)) or not isinstance(window, numbers.Integral) or window < 1 \
+            or window % 2 == 0:
+        raise ValueError(f"{name} must be odd (a cell and as many on each side) and at least 1, got {window!r}")
+    return int(window)
 
 
 def _cells(length: float, cell: float) -> int:

@@ -25,6 +25,7 @@ import sys
 
 from drakeslip.jobs import cli
 from drakeslip.noise import PROFILES
+from drakeslip.terrain import check_window
 from planners.closed_loop import ClosedLoopConfig
 from planners.registry import check_label, label_options, loop_settings
 
@@ -74,12 +75,14 @@ def main(argv=None) -> int:
     executor = cli.executor(args)
     loop_options = {name: value for name, value in (("executed_per_plan", args.executed),
                                                      ("map_filter", args.map_filter)) if value is not None}
-    try:
-        configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
-                                           refine=not args.mlp_only, noise=args.noise, seed=args.seed)
-                   for label in labels}
-    except ValueError as error:
-        ap.error(f"--map-filter: {error}")
+    if args.map_filter is not None:
+        try:
+            check_window(args.map_filter, "map_filter")
+        except ValueError as error:
+            ap.error(f"--map-filter: {error}")
+    configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
+                                       refine=not args.mlp_only, noise=args.noise, seed=args.seed)
+               for label in labels}
 
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json

@@ -22,6 +22,7 @@ import time
 
 from drakeslip.jobs import cli
 from drakeslip.noise import PROFILES
+from drakeslip.terrain import check_window
 
 
 def main(argv=None) -> int:
@@ -44,8 +45,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     if args.drake > args.samples:
         ap.error(f"--drake {args.drake} is more than --samples {args.samples}")
-    if args.map_filter % 2 == 0:
-        ap.error(f"--map-filter must be odd (a cell and as many on each side), got {args.map_filter}")
+    try:
+        check_window(args.map_filter, "--map-filter")
+    except ValueError as error:
+        ap.error(str(error))
 
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan

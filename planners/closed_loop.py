@@ -18,6 +18,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams
 from drakeslip.noise import NoiseProfile
 from drakeslip.rollout import BACKENDS, rollout
+from drakeslip.terrain import check_window
 
 EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
 MAX_HOPS = 60           # a case that has not reached the goal after this many hops fails ("hop cap")
@@ -50,12 +51,11 @@ class ClosedLoopConfig:
     def __post_init__(self):
         if self.backend not in BACKENDS:
             raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
-        for name in ("executed_per_plan", "max_hops", "map_filter"):
+        for name in ("executed_per_plan", "max_hops"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be a positive integer, got {value!r}")
-        if self.map_filter % 2 == 0:
-            raise ValueError(f"map_filter must be odd (a cell and as many on each side), got {self.map_filter!r}")
+        check_window(self.map_filter, "map_filter")
 
 
 def run_case(planner, controller, case, goal_x: float, params: SlipParams,
@@ -76,7 +76,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
         angle_errors = None if noise.silent else noise.angle_errors(rng, k)
         seen = apex if noise.silent else ApexState(*(np.asarray(apex) + apex_errors[0]))
         window = terrain.perceived(seen.x)
-        sensed = window if noise.silent else noise.perceived(window, rng).denoised(noise.heights, config.map_filter)
+        sensed = window if noise.silent else noise.perceived(window, rng, config.map_filter)
         try:
             plan = planner.plan(seen, sensed, aim_x, params)
         except ValueError as refusal:  # a noisy apex the planner cannot start from (below the ground it sees)

@@ -45,8 +45,8 @@ PRESETS = {
 
 # The closed loop a preset is meant to run in, where it is not the protocol's (planners.closed_loop.ClosedLoopConfig):
 # footholds executed per plan (replanning at every apex) and the robot's map filter (5 cells).
-LOOP_SETTINGS = {"step@robust": {"executed_per_plan": 1, "map_filter": 5},
-                 "lstm-guided@robust": {"executed_per_plan": 1, "map_filter": 5}}
+ROBUST_LOOP = {"executed_per_plan": 1, "map_filter": 5}
+LOOP_SETTINGS = {"step@robust": ROBUST_LOOP, "lstm-guided@robust": ROBUST_LOOP}
 
 
 def loop_settings(label: str) -> dict:

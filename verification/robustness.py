@@ -18,6 +18,7 @@ import numpy as np
 from drakeslip import FailureMode, StepLengthController
 from drakeslip.noise import NoiseProfile
 from drakeslip.rollout import BACKENDS, rollout
+from drakeslip.terrain import check_window
 
 from planners.formats.plan import PlanRecord
 from verification.report import wilson_interval
@@ -73,8 +74,7 @@ class Robustness:
         """JSON-ready: the setting, the rate with its 95 % interval, the failure counts and, per draw, its apex
         errors (hops x (x, z, xdot)), leg-angle errors (hops), outcome ("ok" or the FailureMode) and failed hop."""
         return {"planner": self.record.planner, "noise": self.noise.to_dict(), "map_filter": self.map_filter,
-                "seed": self.seed,
-                "backend": self.backend, "hops": self.hops, "n": self.n, "successes": self.successes,
+                "seed": self.seed, "backend": self.backend, "hops": self.hops, "n": self.n, "successes": self.successes,
                 "success_rate": self.rate, "success_interval": list(self.interval),
                 "failures": self.failure_counts(),
                 "draws": {"apex_errors": [d.apex_errors.tolist() for d in self.draws],
@@ -133,8 +133,7 @@ def draw_robots(record: PlanRecord, n: int, noise: NoiseProfile, seed: int, hops
         errors = noise.apex_errors(rng, hops)
         start = np.asarray(record.apex) - errors[0]  # the plan's start was the estimate of the first apex
         params = noise.executed_params(record.params, rng)
-        sensed = (noise.perceived(record.terrain, rng).denoised(noise.heights, map_filter)
-                  if (noise.heights or noise.edges) else record.terrain)
+        sensed = noise.perceived(record.terrain, rng, map_filter) if (noise.heights or noise.edges) else record.terrain
         out.append(Draw(start, params, sensed, errors, noise.angle_errors(rng, hops)))
     return out
 
@@ -154,8 +153,7 @@ def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: i
     hops = total if hops is None else hops
     if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
         raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
-    if isinstance(map_filter, bool) or not isinstance(map_filter, int) or map_filter < 1 or map_filter % 2 == 0:
-        raise ValueError(f"map_filter must be a positive odd number of cells, got {map_filter!r}")
+    map_filter = check_window(map_filter, "map_filter")
     controller = controller or StepLengthController.load_default()
     controller.check_params(record.params)
     draws = draw_robots(record, n, noise, seed, hops, map_filter)
