@@ -11,8 +11,8 @@ which on flat ground are the paper's inputs (xdot, z, x_L) and also tell it the 
 foothold. Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic;
 torch is needed only to read and write the weights file (training is controller_training.py).
 
-``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase, which the fast
-step map integrates in closed form: the foot lands at
+``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
+``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
 x_L(theta) = x + L0 sin(theta) + xdot sqrt(2 (z - h(x_L) - L0 cos(theta)) / g). That takes the foothold error
 from about a millimetre to micrometres with no step-map call (examples/controller_accuracy.py). It matters
 for plans made without the controller (Angle-space): a hop planned near the edge of its feasible set
@@ -34,7 +34,6 @@ from drakeslip.terrain import Terrain
 DEFAULT_WEIGHTS = Path(__file__).with_name("weights") / "controller.pt"
 WEIGHTS_FORMAT = "drakeslip-controller/1"
 N_FEATURES = 3
-NEWTON_STEPS = 6
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,11 @@ class StepLengthController:
         feats = features(apex_arr, footholds, terrain)
         theta = self._forward(feats)
         if self.refine if refine is None else refine:
-            theta = self._newton(feats, theta)
+            from drakeslip.leg_aim import polish_angles  # compiled on first use: --help and imports stay light
+
+            speed, drop, target = np.ascontiguousarray(feats.T)
+            theta = polish_angles(speed, drop, target, theta, self.params.leg_length, self.params.gravity,
+                                  self.config.max_angle)
         return theta
 
     def leg_angle(self, apex, foothold_x: float, terrain: Terrain, refine: bool | None = None) -> float:
@@ -106,31 +109,6 @@ class StepLengthController:
         if not math.isfinite(foothold_x):
             raise ValueError(f"foothold_x must be finite, got {foothold_x!r}")
         return float(self.leg_angles(apex, [foothold_x], terrain, refine)[0])
-
-    def _newton(self, feats: np.ndarray, theta: np.ndarray) -> np.ndarray:
-        """Newton steps on the closed-form touchdown offset(theta) = L0 sin(theta) + xdot T(theta), with the
-        fall time T = sqrt(2 (drop - L0 cos(theta)) / g); d offset / d theta = L0 cos(theta) + xdot L0 sin(theta)
-        / (g T). When the body is less than L0 above the landing surface (a higher step), the foot only clears
-        it for |theta| > acos(drop / L0): iterates are kept on that side (a step that would cross moves half
-        way to the boundary), so a hop planned just above the step's top is reproduced, not tripped."""
-        L0, g = self.params.leg_length, self.params.gravity
-        v, drop, target = feats.T
-        lim = self.config.max_angle
-        side = np.where(target < 0, -1.0, 1.0)
-        boundary = side * np.arccos(np.clip(drop / L0, -1.0, 1.0))  # foot level with the surface at apex
-        feasible = lambda th: drop - L0 * np.cos(th) > 1e-12
-        theta = np.where(feasible(theta), theta, boundary + side * 1e-4)
-        for _ in range(NEWTON_STEPS):
-            fall = drop - L0 * np.cos(theta)
-            ok = fall > 1e-12
-            t = np.sqrt(2 * np.where(ok, fall, 1.0) / g)
-            slope = L0 * np.cos(theta) + v * L0 * np.sin(theta) / (g * t)
-            ok &= slope > 1e-3
-            step = np.where(ok, (L0 * np.sin(theta) + v * t - target) / np.where(ok, slope, 1.0), 0.0)
-            # np.minimum/np.maximum rather than np.clip: same result, a fifth of the call overhead
-            new = np.minimum(np.maximum(theta - np.minimum(np.maximum(step, -0.1), 0.1), -lim), lim)
-            theta = np.where(feasible(new), new, 0.5 * (theta + boundary))
-        return theta
 
     # ---- persistence ---------------------------------------------------------------------------------
     def weights(self) -> dict:

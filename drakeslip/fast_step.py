@@ -221,16 +221,3 @@ def step_many_parallel(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_he
     for i in prange(n):
         step_one(ax[i], az[i], axdot[i], leg_angles[i], p, heights, x0, cell, ditch_height, stance_steps, out[i])
     return out
-
-
-@njit(cache=True, parallel=False)
-def step_many_worlds(ax, az, axdot, leg_angles, world, p, heights, x0, cell, ditch_height, stance_steps):
-    """``step_many`` with each row in its own world: row i hops with the parameters ``p[world[i]]`` over the
-    terrain ``heights[world[i]]`` starting at ``x0[world[i]]`` (the worlds share the cell size and ditch height)."""
-    n = leg_angles.shape[0]
-    out = np.empty((n, N_OUT))
-    for i in range(n):
-        w = world[i]
-        step_one(ax[i], az[i], axdot[i], leg_angles[i], p[w], heights[w], x0[w], cell, ditch_height, stance_steps,
-                 out[i])
-    return out

@@ -83,49 +83,6 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
                                terrain.x0, terrain.cell, terrain.ditch_height, int(stance_steps)))
 
 
-def step_worlds(apexes: np.ndarray, leg_angles: np.ndarray, worlds: "Worlds", which: np.ndarray) -> BatchStepResult:
-    """Fast backend, batched across worlds: row i hops from ``apexes[i]`` with ``leg_angles[i]`` in world
-    ``which[i]`` of ``worlds`` (one compiled call however many hoppers and terrains the rows use)."""
-    from drakeslip import fast_step as fs
-
-    angles = leg_angle_array(leg_angles)
-    apexes = apex_rows(np.asarray(apexes, dtype=np.float64), angles.size)
-    which = np.ascontiguousarray(which, dtype=np.int64).reshape(-1)
-    if which.size != angles.size:
-        raise ValueError(f"which must hold one world index per leg angle: {which.size} indices, {angles.size} angles")
-    outside = which[(which < 0) | (which >= len(worlds.x0))]
-    if outside.size:
-        raise ValueError(f"which must hold world indices in [0, {len(worlds.x0)}), got {int(outside[0])}")
-    return batch_result(fs.step_many_worlds(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
-                                            np.ascontiguousarray(apexes[:, 2]), angles, which, worlds.params,
-                                            worlds.heights, worlds.x0, worlds.cell, worlds.ditch_height,
-                                            int(fs.STANCE_STEPS)))
-
-
-@dataclass(frozen=True)
-class Worlds:
-    """Variants of one terrain and hopper for ``step_worlds``: world j hops with the parameters ``params[j]``
-    (``SlipParams.as_array``) over heights ``heights[j]`` starting at ``x0[j]``; all share ``cell`` and
-    ``ditch_height``."""
-
-    params: np.ndarray    # (W, 6)
-    heights: np.ndarray   # (W, cells)
-    x0: np.ndarray        # (W,)
-    cell: float
-    ditch_height: float
-
-    @classmethod
-    def of(cls, variants: list) -> "Worlds":
-        """From (Terrain, SlipParams) pairs whose terrains share cell size, ditch height and cell count."""
-        terrains = [t for t, _ in variants]
-        first = terrains[0]
-        if any(t.cell != first.cell or t.ditch_height != first.ditch_height or t.heights.size != first.heights.size
-               for t in terrains):
-            raise ValueError("worlds must share the terrain's cell size, ditch height and number of cells")
-        return cls(np.stack([p.as_array() for _, p in variants]), np.stack([t.heights for t in terrains]),
-                   np.array([t.x0 for t in terrains], dtype=np.float64), first.cell, first.ditch_height)
-
-
 def leg_angle_array(leg_angles) -> np.ndarray:
     """``leg_angles`` as a contiguous float array, if every one is finite and inside (-pi/2, pi/2); else ValueError
     naming the first that is not."""

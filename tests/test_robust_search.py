@@ -2,7 +2,6 @@
 compiled call across its own hopper and terrain, a search checks every node it pops (goals included) and closes
 those that fail, and each robustness level stays within its node budget."""
 import re
-from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -10,9 +9,9 @@ import pytest
 import drakeslip as ds
 import planners
 from drakeslip.controller import StepLengthController
-from drakeslip.stepmap import Worlds, step_worlds
 from planners.formats.suite import make_suite
-from planners.search.robust import Robustness
+from planners.search.robust import Robustness, Worlds
+from planners.search.tree import clear_of_edges
 
 
 @pytest.fixture(scope="module")
@@ -20,28 +19,68 @@ def controller():
     return StepLengthController.load_default()
 
 
-def test_one_call_across_worlds_is_each_world_on_its_own():
-    terrain, params = ds.step_world(3), ds.SlipParams()
-    raised = ds.Terrain(terrain.heights + 0.02, terrain.cell, terrain.x0 + 0.01, terrain.ditch_height)
-    variants = [(terrain, params), (raised, replace(params, stiffness=params.stiffness * 0.98, friction=0.6))]
-    worlds = Worlds.of(variants)
-    rng = np.random.default_rng(0)
-    apexes = np.column_stack([rng.uniform(0, 2, 40), rng.uniform(0.8, 1.1, 40), rng.uniform(1, 3, 40)])
-    angles = rng.uniform(-0.5, 0.5, 40)
-    which = rng.integers(0, 2, 40)
-    together = step_worlds(apexes, angles, worlds, which)
-    for w, (world, hopper) in enumerate(variants):
-        rows = which == w
-        alone = ds.step_batch(apexes[rows], angles[rows], world, hopper)
-        assert np.array_equal(together.failure[rows], alone.failure)
-        np.testing.assert_array_equal(together.next_x[rows], alone.next_x)
-        np.testing.assert_array_equal(together.touchdown_x[rows], alone.touchdown_x)
-    with pytest.raises(ValueError, match=r"world indices in \[0, 2\), got 2"):
-        step_worlds(apexes, angles, worlds, which + 2)
-    with pytest.raises(ValueError, match="got nan"):
-        step_worlds(apexes, np.where(which == 1, np.nan, angles), worlds, which)
+def reference_flight(rob, particles, foothold, controller, terrain, last):
+    """Robustness.fly's verdict by flying every hop of every particle on its own (``step_batch`` in the particle's
+    world), the checks in numpy."""
+    w = particles.worlds
+    worlds = [(ds.Terrain(w.heights[j], w.cell, w.x0[j], w.ditch_height), ds.SlipParams(*w.params[j]))
+              for j in range(len(w.x0))]
+    told = particles.states + particles.apex_errors
+    angles = np.clip(controller.leg_angles(told, np.full(len(told), foothold), terrain) + particles.angle_errors,
+                     -1.5, 1.5)
+    ends, robust = [], True
+    for i, (state, angle) in enumerate(zip(particles.states, angles)):
+        world, hopper = worlds[particles.world[i]]
+        r = ds.step_batch(state, [angle], world, hopper)
+        seen = r.touchdown_x - particles.shift[i]
+        ends.append([r.next_x[0], r.next_z[0], r.next_xdot[0]])
+        robust &= bool(r.ok[0] and abs(r.touchdown_x[0] - foothold) <= rob.landing
+                       and r.next_xdot[0] >= rob.min_speed
+                       and r.next_z[0] - terrain.height_at(r.next_x[0] - particles.shift[i]) >= particles.clearance
+                       and terrain.same_level(seen, foothold)[0] and clear_of_edges(terrain, seen, rob.edge_margin)[0])
+        if robust and last:
+            follow = ds.step_batch(ends[-1], particles.fan, world, hopper)
+            good = (follow.ok & (follow.next_xdot >= rob.min_speed)
+                    & clear_of_edges(terrain, np.nan_to_num(follow.touchdown_x) - particles.shift[i], rob.edge_margin))
+            robust &= int(good.sum()) >= rob.lookahead
+    return robust, np.array(ends)
+
+
+def test_the_compiled_check_is_every_hop_flown_on_its_own(controller):
+    """One compiled call flies every particle with its own hopper over its own terrain (raised or shifted) and
+    stops at the first that fails: its verdict on every candidate foothold of a few starts, with and without the
+    way-on check, is that of flying every hop alone; a robust flight's next apexes are the same to the bit, and it
+    counts the hops it flew, no more than every hop."""
+    suite = make_suite("ditch", seed=1000, n_terrains=2)
+    params = ds.SlipParams(friction=suite.friction)
+    planner = planners.make("step", controller=controller)
+    rob = Robustness()
+    verdicts = []
+    for case in suite.cases[::4]:
+        terrain = case.terrain.perceived(case.apex.x)
+        particles = rob.particles(case.apex, terrain, params)
+        x_l = planner.candidates(case.apex, terrain, params, None)
+        for foothold in x_l[np.isfinite(planner.aim(case.apex, x_l, terrain, params))]:
+            for last in (False, True):
+                robust, ends, hops = rob.fly(particles, foothold, controller, terrain, last)
+                expected, expected_ends = reference_flight(rob, particles, foothold, controller, terrain, last)
+                assert robust == expected, (case.id, foothold, last)
+                assert 1 <= hops <= len(particles.states) * (1 + last * particles.fan.size)
+                if robust:
+                    np.testing.assert_array_equal(ends, expected_ends)
+                verdicts.append(robust)
+    assert 20 <= sum(verdicts) <= len(verdicts) - 20, (sum(verdicts), len(verdicts))
+    # a second hop after which a robot whose map is shifted finds one way on, judged on its own shifted map (read
+    # with another particle's shift, its fan had two)
+    apex = (8.126405702506576, 0.8136182100515159, 1.9320474018461449)
+    terrain = ds.ditch_world(150014).perceived(apex[0])
+    particles = rob.particles(apex, terrain, params)
+    passed, ends, _ = rob.fly(particles, 8.7375, controller, terrain, last=False)
+    assert passed
+    assert not rob.fly(particles.moved(ends), 10.1875, controller, terrain, last=True)[0]
+    assert not reference_flight(rob, particles.moved(ends), 10.1875, controller, terrain, last=True)[0]
     with pytest.raises(ValueError, match="share"):
-        Worlds.of([(terrain, params), (ds.Terrain(terrain.heights[:-1], terrain.cell, terrain.x0), params)])
+        Worlds.of([(case.terrain, params), (ds.Terrain(case.terrain.heights[:-1], 0.1, 0.0), params)])
 
 
 def test_every_hop_the_robust_level_covers_survives_its_particles(controller):
@@ -59,10 +98,9 @@ def test_every_hop_the_robust_level_covers_survives_its_particles(controller):
         rob = Robustness(sigmas=float(found[1]), depth=int(found[2]))
         particles = rob.particles(case.apex, terrain, params)
         for hop, foothold in enumerate(plan.footholds[:rob.depth]):
-            passed, ends, _ = rob.fly(particles, np.array([foothold]), controller, terrain,
-                                      last=hop == rob.depth - 1)
-            assert passed[0], (case.id, hop)
-            particles = particles.moved(ends[0])
+            passed, ends, _ = rob.fly(particles, foothold, controller, terrain, last=hop == rob.depth - 1)
+            assert passed, (case.id, hop)
+            particles = particles.moved(ends)
         checked += rob.depth
     assert checked >= 8
 
@@ -104,9 +142,9 @@ def test_robust_hops_keep_the_apex_a_leg_length_above_the_ground(controller):
     assert plan.message.startswith("found by robust (2 sigma, depth 2)")
     rob = Robustness()
     particles = rob.particles(case.apex, terrain, params)
-    passed, ends, _ = rob.fly(particles, plan.footholds[:1], controller, terrain, last=False)
-    clearance = ends[0][:, 1] - terrain.height_at(ends[0][:, 0] - particles.shift)
-    assert passed[0] and clearance.min() >= params.leg_length
+    passed, ends, _ = rob.fly(particles, plan.footholds[0], controller, terrain, last=False)
+    clearance = ends[:, 1] - terrain.height_at(ends[:, 0] - particles.shift)
+    assert passed and clearance.min() >= params.leg_length
     high = planners.make("step@robust", controller=controller, robustness={"min_clearance": 3.0})
     assert high.plan(case.apex, terrain, suite.goal_x, params).message.startswith("found by grid")
     with pytest.raises(ValueError, match="min_clearance"):

@@ -19,8 +19,8 @@ within ``landing`` of the foothold on the same level, clear of its edges by ``ed
 fast skimming gait, only leg angles near the friction cone's edge reach the ground without striking it first,
 which is where noisy runs slip and trip); the node's particles are those next apexes. At the last robust hop
 every particle must also find at least ``lookahead`` working hops in a fan of leg angles from where it lands: a
-robot that replans from there needs a way on. A check is one controller call and one batched step-map call
-across the particles' hoppers and terrains (two with the way on).
+robot that replans from there needs a way on. A check is one controller call and one compiled call that flies
+the particles, each with its own hopper over its own terrain, and stops at the first that fails.
 """
 from __future__ import annotations
 
@@ -28,13 +28,16 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
+from numba import njit
 
 from drakeslip import SlipParams, Terrain
+from drakeslip.dynamics import height_at
+from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
+                                 step_one)
 from drakeslip.noise import PROFILES, NoiseProfile
 from drakeslip.params import check_count
-from drakeslip.stepmap import Worlds, step_worlds
+from drakeslip.terrain import LEVEL_TOLERANCE
 
-from planners.search.tree import clear_of_edges
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
 
@@ -118,55 +121,56 @@ class Robustness:
         errors = np.array([e for e, *_ in rows])
         return Particles(np.asarray(apex, dtype=np.float64) - errors, errors, np.array([d for _, d, *_ in rows]),
                          np.array([variants.index((ks, ms, g)) for *_, ks, ms, g in rows]),
-                         np.array([g[1] for *_, g in rows]), worlds, math.atan(friction),
+                         np.array([g[1] for *_, g in rows]), worlds,
+                         (np.linspace(-0.95, 0.95, LOOKAHEAD_ANGLES) * math.atan(friction))[::-1].copy(),
                          self.min_clearance * params.leg_length)
 
-    def fly(self, particles: "Particles", x_l: np.ndarray, controller, terrain: Terrain, last: bool):
-        """(robust (k,) bool, next particle states (k, P, 3), step-map calls) for candidate footholds ``x_l`` on
-        ``terrain``, the map the planner sees; ``last``: this is the last robust hop, so every particle must also
-        have a way on from where it lands. One controller call and one batched step-map call across the
-        particles' worlds (two with the way on)."""
-        k, n = x_l.size, particles.states.shape[0]
-        if k == 0:
-            return np.ones(0, dtype=bool), np.zeros((0, n, 3)), 0
+    def fly(self, particles: "Particles", foothold: float, controller, terrain: Terrain, last: bool):
+        """(robust, the particles' next apexes (P, 3), hops flown) for the candidate ``foothold`` on ``terrain``,
+        the map the planner sees; ``last``: this is the last robust hop, so every particle must also have a way on
+        from where it lands. One controller call for the particles' aims, then one compiled call that flies them
+        and checks where they land (``fly_particles``); the next apexes mean something only when robust."""
         told = particles.states + particles.apex_errors
-        aims = controller.leg_angles(np.repeat(told, k, axis=0), np.tile(x_l, n), terrain).reshape(n, k)
-        angles = np.clip(aims + particles.angle_errors[:, None], -1.5, 1.5)
-        r = step_worlds(np.repeat(particles.states, k, axis=0), angles, particles.worlds,
-                        np.repeat(particles.world, k))
-        td = r.touchdown_x.reshape(n, k)
-        seen = td - particles.shift[:, None]  # where each particle landed on the map the planner sees
-        ok = (r.ok.reshape(n, k) & (np.abs(td - x_l) <= self.landing) & (r.next_xdot.reshape(n, k) >= self.min_speed))
-        next_x = r.next_x.reshape(n, k)
-        aloft = np.isfinite(next_x)
-        ok[aloft] &= (r.next_z.reshape(n, k)[aloft] - terrain.height_at((next_x - particles.shift[:, None])[aloft])
-                      >= particles.clearance)
-        landed = np.isfinite(td)
-        ok[landed] &= (terrain.same_level(seen[landed], np.broadcast_to(x_l, td.shape)[landed])
-                       & clear_of_edges(terrain, seen[landed], self.edge_margin))
-        robust = np.all(ok, axis=0)
-        ends = np.stack([r.next_x, r.next_z, r.next_xdot], axis=1).reshape(n, k, 3).transpose(1, 0, 2)
-        calls = angles.size
-        if last and self.lookahead and robust.any():
-            alive = np.flatnonzero(robust)
-            fan = np.linspace(-0.95, 0.95, LOOKAHEAD_ANGLES) * particles.friction_angle
-            here = ends[alive].reshape(-1, 3)
-            world = np.tile(particles.world, alive.size)
-            follow = step_worlds(np.repeat(here, fan.size, axis=0), np.tile(fan, here.shape[0]), particles.worlds,
-                                 np.repeat(world, fan.size))
-            calls += follow.failure.size
-            seen = np.nan_to_num(follow.touchdown_x) - np.repeat(particles.shift[world], fan.size)
-            good = follow.ok & clear_of_edges(terrain, seen, self.edge_margin) & (follow.next_xdot >= self.min_speed)
-            counts = good.reshape(alive.size, n, fan.size).sum(axis=2).min(axis=1)
-            robust[alive[counts < self.lookahead]] = False
-        return robust, ends, calls
+        aims = controller.leg_angles(told, np.full(particles.states.shape[0], float(foothold)), terrain)
+        angles = np.clip(aims + particles.angle_errors, -1.5, 1.5)
+        w = particles.worlds
+        return fly_particles(particles.states, angles, particles.world, particles.shift, w.params, w.heights, w.x0,
+                             w.cell, w.ditch_height, float(foothold), terrain.heights, terrain.x0, self.landing,
+                             self.min_speed, particles.clearance, self.edge_margin,
+                             particles.fan if last and self.lookahead else NO_FAN, self.lookahead)
+
+
+@dataclass(frozen=True)
+class Worlds:
+    """The hoppers and terrains of a particle set, as arrays for ``fly_particles``: world j hops with the parameters
+    ``params[j]`` (``SlipParams.as_array``) over heights ``heights[j]`` starting at ``x0[j]``; all share ``cell``
+    and ``ditch_height``."""
+
+    params: np.ndarray    # (W, 6)
+    heights: np.ndarray   # (W, cells)
+    x0: np.ndarray        # (W,)
+    cell: float
+    ditch_height: float
+
+    @classmethod
+    def of(cls, variants: list) -> "Worlds":
+        """From (Terrain, SlipParams) pairs whose terrains share cell size, ditch height and cell count."""
+        terrains = [t for t, _ in variants]
+        first = terrains[0]
+        if any(t.cell != first.cell or t.ditch_height != first.ditch_height or t.heights.size != first.heights.size
+               for t in terrains):
+            raise ValueError("worlds must share the terrain's cell size, ditch height and number of cells")
+        return cls(np.stack([p.as_array() for _, p in variants]), np.stack([t.heights for t in terrains]),
+                   np.array([t.x0 for t in terrains], dtype=np.float64), first.cell, first.ditch_height)
 
 
 @dataclass
 class Particles:
     """Perturbed robots flying a sequence together: their true apexes (P, 3), the errors of the apexes they are
     told (P, 3), their leg-angle errors (P,), the world each hops in (P,: an index into ``worlds``, its hopper and
-    its terrain) and how far that terrain is shifted from the map (P,); the friction-cone angle they share."""
+    its terrain) and how far that terrain is shifted from the map (P,); the leg angles of the way-on check (a fan
+    across their shared friction cone, most forward first: the hops that work lie forward, so a check that needs a
+    few of them stops sooner) and how high above the ground their next apexes must be."""
 
     states: np.ndarray
     apex_errors: np.ndarray
@@ -174,9 +178,69 @@ class Particles:
     world: np.ndarray
     shift: np.ndarray
     worlds: Worlds
-    friction_angle: float
+    fan: np.ndarray
     clearance: float
 
     def moved(self, states: np.ndarray) -> "Particles":
         """The same robots at new apexes."""
         return replace(self, states=states)
+
+
+NO_FAN = np.zeros(0)  # no way-on check
+
+
+@njit(cache=True)
+def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch_height, foothold, seen_heights,
+                  seen_x0, landing, min_speed, clearance, edge_margin, fan, lookahead):
+    """Robustness.fly's flights, compiled: particle i hops from ``states[i]`` with ``angles[i]`` in its world
+    (``Worlds`` arrays) and must complete the hop, touch down within ``landing`` of ``foothold`` on its level of the
+    map (``seen_heights`` from ``seen_x0``, sharing the worlds' ``cell``), clear of its edges by ``edge_margin``, and
+    reach its next apex with ``min_speed``, ``clearance`` above the ground under it. Then, for a non-empty ``fan``,
+    each particle must find ``lookahead`` hops among the fan's leg angles that complete, land clear of edges and keep
+    ``min_speed``. Stops at the first particle that fails and counts a particle's fan only until it has found
+    ``lookahead`` hops, so the verdict is that of flying every hop and the hops flown are fewer. Returns (robust,
+    next apexes (P, 3), hops flown)."""
+    n = states.shape[0]
+    ends = np.empty((n, 3))
+    out = np.empty(N_OUT)
+    hops = 0
+    for i in range(n):
+        w = world[i]
+        step_one(states[i, 0], states[i, 1], states[i, 2], angles[i], params[w], heights[w], x0[w], cell,
+                 ditch_height, STANCE_STEPS, out)
+        hops += 1
+        x, z, xdot, touchdown = out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_TD_X]
+        ends[i, 0], ends[i, 1], ends[i, 2] = x, z, xdot
+        seen = touchdown - shift[i]  # where it landed on the map the planner sees
+        if not (out[OUT_CODE] == OK and abs(touchdown - foothold) <= landing and xdot >= min_speed
+                and z - height_at(seen_heights, seen_x0, cell, x - shift[i]) >= clearance
+                and same_level(seen_heights, seen_x0, cell, seen, foothold)
+                and clear_of_edges_at(seen_heights, seen_x0, cell, seen, edge_margin)):
+            return False, ends, hops
+    for i in range(n if fan.size else 0):
+        w = world[i]
+        found = 0
+        for angle in fan:
+            step_one(ends[i, 0], ends[i, 1], ends[i, 2], angle, params[w], heights[w], x0[w], cell, ditch_height,
+                     STANCE_STEPS, out)
+            hops += 1
+            if (out[OUT_CODE] == OK and out[OUT_XDOT] >= min_speed
+                    and clear_of_edges_at(seen_heights, seen_x0, cell, out[OUT_TD_X] - shift[i], edge_margin)):
+                found += 1
+                if found >= lookahead:
+                    break
+        if found < lookahead:
+            return False, ends, hops
+    return True, ends, hops
+
+
+@njit(cache=True)
+def same_level(heights, x0, cell, a, b):
+    """``Terrain.same_level`` on one pair of points, compiled."""
+    return abs(height_at(heights, x0, cell, a) - height_at(heights, x0, cell, b)) <= LEVEL_TOLERANCE
+
+
+@njit(cache=True)
+def clear_of_edges_at(heights, x0, cell, x, margin):
+    """``planners.search.tree.clear_of_edges`` at one point, compiled."""
+    return same_level(heights, x0, cell, x - margin, x) and same_level(heights, x0, cell, x + margin, x)

@@ -174,11 +174,11 @@ class StepSpacePlanner(Planner):
             if node in flights or depth > robust.depth:
                 return True, 0
             here = flights[tree.parent[node]]
-            passed, ends, calls = robust.fly(here, np.array([tree.foothold[node]]), self.controller, problem.terrain,
-                                             last=depth == robust.depth)
-            if passed[0]:
-                flights[node] = here.moved(ends[0])
-            return bool(passed[0]), calls
+            passed, ends, hops = robust.fly(here, tree.foothold[node], self.controller, problem.terrain,
+                                            last=depth == robust.depth)
+            if passed:
+                flights[node] = here.moved(ends)
+            return passed, hops
 
         return admit
 
