@@ -19,11 +19,11 @@ from pathlib import Path
 from drakeslip.jobs import cli
 from planners.registry import check_label, planner_name
 
-PLANNERS = ("heuristic", "angle", "step", "lstm@paper", "lstm-guided@paper", "lstm@dagger", "lstm", "lstm-guided")
+PLANNERS = ("heuristic", "angle", "step", "lstm@paper", "lstm-guided@paper", "lstm@no-ranker", "lstm", "lstm-guided")
 LABELS = {"heuristic": "Heuristic", "angle": "Angle-space", "step": "Step-space",
           "lstm@paper": "LSTM (@paper: the paper's model and settings)",
           "lstm-guided@paper": "LSTM-Guided (@paper: the paper's model and settings)",
-          "lstm@dagger": "LSTM, expert-trained model, no re-ranker",
+          "lstm@no-ranker": "LSTM, expert-trained model, no re-ranker",
           "lstm": "LSTM (default: expert-trained model, learned re-ranker)",
           "lstm-guided": "LSTM-Guided (default: sub-cell model, lazy, apex-conditioned)"}
 # The paper's Tables II (ditch) and III (step): success %, ODE calls, t_plan [s].

@@ -210,7 +210,7 @@ def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     assert len(train(cfg, log=lambda *_: None)["history"]) == 3
     import planners
 
-    planner = planners.make("lstm@paper", weights=cfg.out)
+    planner = planners.make("lstm@paper", model=cfg.out)
     terrain = ds.step_world(11)
     plan = planner.plan((0.0, 0.75, 1.5), terrain, 10.0, ds.SlipParams())
     assert plan.ode_calls == 0
@@ -275,14 +275,14 @@ def test_learned_planners_with_the_committed_weights():
 
 
 def test_lstm_guided_takes_cost_weights_beside_its_checkpoint():
-    """``weights`` names the LSTM checkpoint; the node cost's weights are ``cost_weights``, as Step-space's."""
+    """``model`` names the LSTM checkpoint; the node cost's weights are ``cost_weights``, as Step-space's."""
     import planners
     from planners.checkpoints import PAPER_WEIGHTS
     from planners.search.tree import CostWeights
 
-    guided = planners.make("lstm-guided", weights=str(PAPER_WEIGHTS), cost_weights=(1, 0, 2))
-    assert guided.weights == CostWeights(1, 0, 2)
-    assert planners.make("lstm-guided").weights == planners.make("step").weights
+    guided = planners.make("lstm-guided", model=str(PAPER_WEIGHTS), cost_weights=(1, 0, 2))
+    assert guided.cost_weights == CostWeights(1, 0, 2)
+    assert planners.make("lstm-guided").cost_weights == planners.make("step").cost_weights
     terrain, apex = ds.Terrain.flat(), (0.0, 0.9, 2.0)
     plan = guided.plan(apex, terrain, 4.0, ds.SlipParams(friction=0.8))
     assert plan.success, plan.message

@@ -15,14 +15,14 @@ class DatasetConfig:
     """The paper's Table I by default."""
 
     planner: str = "angle"              # "angle": the paper's; "step": Step-space trees; "expert": rollouts of
-                                        # the goal-reaching expert (planners/expert.py; see README, LSTM)
+                                        # the goal-reaching expert (training/expert.py; see README, LSTM)
     n_terrains: int = 360               # half ditch world, half step world
     apexes_per_terrain: int = 8
     min_steps: int = 8
     goal_sequences: int = 8             # d: goals each search collects
     branching: int = 15
     friction: float = 0.6               # lower than the test suites' 0.8, for robustness
-    weights: tuple = (1.0, 1.0, 2.0)
+    cost_weights: tuple = (1.0, 1.0, 2.0)   # the search's node cost (planners.search.tree.CostWeights)
     goal_x: float = 10.0
     min_progress: float = 0.6           # fraction of the distance from the apex to the search target
     max_paths_per_instance: int = 20    # seeded subsample of an instance's paths (~50k sequences in all)
@@ -97,7 +97,7 @@ class TrainConfig:
     """The footstep model's training loop (train_lstm.py)."""
 
     data: str = "data/footsteps"        # folder(s) of dataset shards (*.npz) written by generate_dataset, comma-separated
-    out: str = "planners/weights/lstm.pt"
+    out: str = "planners/weights/lstm_paper.pt"
     checkpoint: str = "out/lstm_checkpoint.pt"
     epochs: int = 30
     batch_size: int = 256
