@@ -27,7 +27,7 @@ from pathlib import Path
 
 from drakeslip.jobs import cli
 from drakeslip.jobs.files import atomic_write, read_json
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from planners.checkpoints import EXPERT_WEIGHTS
 from planners.learned.training.config import RankerTrainConfig
 
@@ -103,9 +103,10 @@ def parser() -> cli.ArgumentParser:
 def main(argv=None):
     ap = parser()
     args = ap.parse_args(argv)
-    for family in args.families:
-        if family not in TERRAIN_FAMILIES:
-            ap.error(f"unknown terrain family {family!r}; choose from {sorted(TERRAIN_FAMILIES)}")
+    try:
+        check_families(args.families)
+    except ValueError as error:
+        ap.error(f"--families: {error}")
     executor = cli.executor(args)
     data = Path(args.data_dir)
     # as the folder records them: the paths and the family list as typed

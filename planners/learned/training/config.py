@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import check_families
 
 
 @dataclass(frozen=True)
@@ -61,9 +61,7 @@ class DatasetConfig:
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:
                 raise ValueError(f"DatasetConfig.{name} must be 0 < low <= high, got {getattr(self, name)!r}")
-        unknown = [f for f in self.families if f not in TERRAIN_FAMILIES]
-        if unknown:
-            raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
+        check_families(self.families)
         for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
                      "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells", "expert_max_nodes"):
             if getattr(self, name) < 1:

@@ -28,9 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
+from drakeslip import ApexState, SlipParams
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.jobs.runner import FileStore, run
+from drakeslip.terrain import family as terrain_family
 
 from planners.learned.inputs import encode_window, pad_steps
 from planners.learned.training.config import DatasetConfig
@@ -44,7 +45,7 @@ def instance(cfg: DatasetConfig, i: int):
     """Terrain and initial apex of instance i: terrain i // apexes_per_terrain, families alternating."""
     t = i // cfg.apexes_per_terrain
     family = cfg.families[t % len(cfg.families)]
-    terrain = TERRAIN_FAMILIES[family](seed=cfg.seed * 1_000_003 + t)
+    terrain = terrain_family(family)(seed=cfg.seed * 1_000_003 + t)
     rng = np.random.default_rng([cfg.seed, i])
     for _ in range(100):  # start over solid ground: near the start or anywhere along the course
         x = rng.uniform(cfg.start_x, 0.5) if rng.random() < 0.25 else rng.uniform(cfg.start_x, cfg.goal_x - 2.0)
