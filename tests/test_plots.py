@@ -44,9 +44,10 @@ def test_noise_scale_of_a_recorded_profile():
     assert plots.noise_scale(profile("state").to_dict()) is None
 
 
-def test_result_figures(runs, tmp_path, example):
-    paper = example("paper_tables").PAPER
-    assert is_png(plots.success_figure(runs, tmp_path / "s.png", {"ditch-7": paper["ditch"]}))
+def test_result_figures(runs, tmp_path):
+    from verification.paper import TABLES
+
+    assert is_png(plots.success_figure(runs, tmp_path / "s.png", {"ditch-7": TABLES["ditch"]}))
     assert is_png(plots.cost_figure(runs, tmp_path / "c.png"))
     assert is_png(plots.noise_figure(runs, tmp_path / "n.png"))
     assert set(plots.noise_runs(runs)) == {("ditch-7", "heuristic"), ("ditch-7", "step")}
