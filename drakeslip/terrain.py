@@ -183,3 +183,19 @@ def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 
 
 
 TERRAIN_FAMILIES = {"ditch": ditch_world, "step": step_world, "mixed": mixed_world}
+
+
+def check_families(names) -> tuple:
+    """``names`` as a tuple when it lists one or more terrain families of ``TERRAIN_FAMILIES``; else a ValueError
+    naming the unknown ones and the known families."""
+    names = tuple(names)
+    unknown = [name for name in names if not isinstance(name, str) or name not in TERRAIN_FAMILIES]
+    if unknown or not names:
+        raise ValueError(f"unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+    return names
+
+
+def family(name: str):
+    """The generator of the terrain family ``name`` (``family("ditch")(seed)`` is ``ditch_world(seed)``); a
+    ValueError naming the known families for any other name."""
+    return TERRAIN_FAMILIES[check_families([name])[0]]

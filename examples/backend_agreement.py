@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip import TERRAIN_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
 
 
@@ -30,9 +30,10 @@ def main(argv=None) -> int:
     ap.add_argument("--max-disagreement", type=cli.probability, default=0.01,
                     help="largest share of cases whose outcomes may differ (near-ties)")
     args = ap.parse_args(argv)
-    unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
-    if unknown:
-        ap.error(f"--families: unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+    try:
+        check_families(args.families)
+    except ValueError as error:
+        ap.error(f"--families: {error}")
 
     from verification.backend_agreement import compare_backends
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip import TERRAIN_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
 
 N_ANGLES = 30  # the batch: this many leg angles from each apex, as a planner expands a node
@@ -26,9 +26,10 @@ def main(argv=None) -> int:
     ap.add_argument("--repeats", type=cli.positive_int, default=20,
                     help="fast-backend repetitions per case (the best is kept)")
     args = ap.parse_args(argv)
-    unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
-    if unknown:
-        ap.error(f"--families: unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+    try:
+        check_families(args.families)
+    except ValueError as error:
+        ap.error(f"--families: {error}")
 
     import numpy as np
 

@@ -19,8 +19,7 @@ from collections import Counter
 
 from drakeslip.jobs import cli
 from planners.registry import check_label, labels, planner_name
-
-MODES = ("angles", "footholds", "auto")
+from verification.plan_check_options import MODES, TOLERANCE
 
 
 def main(argv=None) -> int:
@@ -31,7 +30,7 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
     ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")
     ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")
-    ap.add_argument("--tolerance", type=cli.positive, default=0.01, help="foothold and apex tolerance [m, m/s]")
+    ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE, help="foothold and apex tolerance [m, m/s]")
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)

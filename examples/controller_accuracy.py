@@ -46,7 +46,8 @@ def stats(err) -> str:
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--weights", type=cli.input_file, default=DEFAULT_WEIGHTS, help="controller weights file")
+    ap.add_argument("--controller", type=cli.input_file, default=DEFAULT_WEIGHTS,
+                    help="controller weights file (default: the committed drakeslip/weights/controller.pt)")
     ap.add_argument("--samples", type=cli.integer(N_STEPPED), default=20000,
                     help=f"random hops per terrain kind, before keeping the successful ones (at least {N_STEPPED}: "
                          f"the stepped kind spreads them over {N_STEPPED} terrains)")
@@ -56,9 +57,9 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     try:
-        controller = StepLengthController.load(args.weights)
+        controller = StepLengthController.load(args.controller)
     except (OSError, ValueError) as error:  # a damaged or mismatched weights file
-        ap.error(f"--weights: {error}")
+        ap.error(f"--controller: {error}")
     cli.announce(argv)
 
     from drakeslip import step, step_batch  # the step maps: numba, and pydrake for the Drake one

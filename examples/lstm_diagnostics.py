@@ -1,9 +1,10 @@
 """How good is the footstep model as a guide for planning? Five diagnostics (docs/results.md, "The learned
 planners on fresh suites" and "DAgger"):
 
-    python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 --weights planners/weights/lstm.pt
+    python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 \\
+        --model planners/weights/lstm_paper.pt
 
-The model diagnosed is --weights (default: the paper's, planners/weights/lstm.pt), in every planner below.
+The model diagnosed is --model (default: the paper's, planners/weights/lstm_paper.pt), in every planner below.
 
 1. First step: from each case's start, of the model's probability on the admissible candidate footholds
    (Step-space's grid after its checks that need no simulation), the share on footholds that work (the hop
@@ -26,10 +27,10 @@ The model diagnosed is --weights (default: the paper's, planners/weights/lstm.pt
    of the model's k best footholds (a value or feasibility head) could add to the mode planner.
 
 The "one-step mode planner" is the LSTM planner one step ahead without a re-ranker (planners.make("lstm",
-weights=..., max_steps=1, ranker=None)); the greedy oracle plans up to 12 steps, as the paper's planner does.
+model=..., max_steps=1, ranker=None)); the greedy oracle plans up to 12 steps, as the paper's planner does.
 
 Exit status: 0 when the diagnostics ran, 2 for a usage or input error (a missing or malformed suite, a damaged
-weights file).
+model file).
 """
 from __future__ import annotations
 
@@ -156,20 +157,20 @@ def crossed(planner, cases, goal_x, params):
     return float(np.mean([r["success"] for r in results])), dict(failures)
 
 
-def first_step(cases, goal_x, params, weights):
+def first_step(cases, goal_x, params, model):
     """(share of admissible probability on working footholds, share of starts whose mode works)."""
     from planners import make
     from planners.learned.lstm_guided import PathConditionedSampler
     from planners.search.tree import SearchTree
 
-    guided, grid = make("lstm-guided", weights=weights), make("step")
+    guided, grid = make("lstm-guided", model=model), make("step")
     shares, modes = [], []
     for case in cases:
         problem = guided.problem(case.apex, case.terrain.perceived(case.apex.x), goal_x, params, 0.0)
         x_l = grid.candidates(case.apex, problem.terrain, params, None, problem.window_end)
         theta = grid.aim(case.apex, x_l, problem.terrain, params)
         ok, _ = grid.simulate(problem, case.apex, x_l, theta)
-        p = PathConditionedSampler(guided.net, problem, 1.0).weights(SearchTree(tuple(case.apex)), 0, x_l)
+        p = PathConditionedSampler(guided.net, problem, 1.0).probabilities(SearchTree(tuple(case.apex)), 0, x_l)
         p = np.where(np.isnan(theta), 0.0, p)
         if p.sum() > 0:
             shares.append(p[ok].sum() / p.sum())
@@ -177,7 +178,7 @@ def first_step(cases, goal_x, params, weights):
     return float(np.mean(shares)), float(np.mean(modes))
 
 
-def search(cases, goal_x, params, weights):
+def search(cases, goal_x, params, model):
     """Diagnostic 2, printed per planner."""
     from planners.learned.lstm_guided import LSTMGuidedPlanner
     from planners.search.step_space import StepSpacePlanner
@@ -185,9 +186,9 @@ def search(cases, goal_x, params, weights):
     print("2. search: share of simulated candidates that work (one plan from each start)")
     counted = {"Step-space": type("CountingStep", (Counting, StepSpacePlanner), {})(),
                "LSTM-guided, lazy, path": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
-                   weights=weights, lazy=True, conditioning="path"),
+                   model=model, lazy=True, conditioning="path"),
                "LSTM-guided, lazy, apex": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
-                   weights=weights, lazy=True, conditioning="apex")}
+                   model=model, lazy=True, conditioning="apex")}
     for label, planner in counted.items():
         for case in cases:
             planner.plan(case.apex, case.terrain.perceived(case.apex.x), goal_x, params)
@@ -236,7 +237,7 @@ def shown(path) -> str:
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
-    ap.add_argument("--weights", type=cli.input_file, default=PAPER_WEIGHTS,
+    ap.add_argument("--model", type=cli.input_file, default=PAPER_WEIGHTS,
                     help="the footstep model diagnosed, in every diagnostic (the paper's Table I model by default)")
     ap.add_argument("--every", type=cli.positive_int, default=3, help="take every K-th case")
     ap.add_argument("--cases", type=cli.positive_int, default=None,
@@ -256,29 +257,29 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as error:  # a malformed suite file
         ap.error(str(error))
     try:
-        load_model(args.weights)
-    except (OSError, ValueError) as error:  # a damaged or mismatched weights file
-        ap.error(f"--weights: {error}")
+        load_model(args.model)
+    except (OSError, ValueError) as error:  # a damaged or mismatched model file
+        ap.error(f"--model: {error}")
     cases = suite.cases[::args.every][:args.cases]
     params = SlipParams(friction=suite.friction)
     chosen = args.diagnostics
-    print(f"{suite.name}: {len(cases)} cases, model {shown(args.weights)}")
+    print(f"{suite.name}: {len(cases)} cases, model {shown(args.model)}")
 
     if "1" in chosen:
-        share, mode = first_step(cases, suite.goal_x, params, args.weights)
+        share, mode = first_step(cases, suite.goal_x, params, args.model)
         print(f"1. first step: {100 * share:.1f} % of the admissible probability on working footholds; "
               f"the mode works from {100 * mode:.1f} % of the starts")
     if "2" in chosen:
-        search(cases, suite.goal_x, params, args.weights)
+        search(cases, suite.goal_x, params, args.model)
     if "3" in chosen:
-        greedy = _oracles()["GreedyOracle"](weights=args.weights)
+        greedy = _oracles()["GreedyOracle"](model=args.model)
         success, failures = crossed(greedy, cases, suite.goal_x, params)
         print(f"3. greedy oracle: {100 * success:.1f} % reach the goal; failures {failures}")
     if "4" in chosen:
         from planners import make
         from planners.learned.training.expert import GoalReachingExpert
 
-        mode = make("lstm", weights=args.weights, max_steps=1, ranker=None)  # the one-step mode planner
+        mode = make("lstm", model=args.model, max_steps=1, ranker=None)  # the one-step mode planner
         expert = GoalReachingExpert(look_ahead=args.look_ahead)
         hit, width, whole, n = expert_path(cases, suite.goal_x, params, mode, expert)
         print(f"4. expert's path: the one-step mode planner's foothold is goal-reaching in {100 * hit:.1f} % of "
@@ -287,7 +288,7 @@ def main(argv=None) -> int:
     if "5" in chosen:
         oracle = _oracles()["TopKOracle"]
         for k in args.top_k:
-            success, failures = crossed(oracle(k, weights=args.weights), cases, suite.goal_x, params)
+            success, failures = crossed(oracle(k, model=args.model), cases, suite.goal_x, params)
             print(f"5. top-{k} oracle: {100 * success:.1f} % reach the goal; failures {failures}")
     return cli.OK
 

@@ -6,9 +6,9 @@ fig1_lstm_steps.png: one start on a mixed terrain; the distributions of the firs
 over the terrain, with the hops the controller makes to the LSTM planner's first four footholds (on Drake).
 fig3_second_step.png: ditch (top) and step (bottom) terrain, three initial energies each (arrow length ~
 apex speed); the second step's distribution scaled so its mode has height 1, and the 4-step plan (modes).
-The planner is the paper's LSTM planner (planners.make("lstm@paper")), with --weights for another model.
+The planner is the paper's LSTM planner (planners.make("lstm@paper")), with --model for another model.
 
-Exit status: 0 when both figures were written, 2 for a usage or input error (e.g. a damaged weights file).
+Exit status: 0 when both figures were written, 2 for a usage or input error (e.g. a damaged model file).
 """
 from __future__ import annotations
 
@@ -97,17 +97,17 @@ def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--out", type=cli.output_folder, default="docs", help="folder the two figures are written to")
     ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="seed of the mixed, ditch and step terrains")
-    ap.add_argument("--weights", type=cli.input_file, default=PAPER_WEIGHTS,
-                    help="LSTM weights the paper's planner runs with (the paper's model by default)")
+    ap.add_argument("--model", type=cli.input_file, default=PAPER_WEIGHTS,
+                    help="footstep model checkpoint the paper's planner runs with (the paper's model by default)")
     args = ap.parse_args(argv)
 
     from drakeslip.controller import StepLengthController
     from planners import make
 
     try:
-        planner = make("lstm@paper", weights=args.weights)
-    except (OSError, ValueError) as error:  # a damaged or mismatched weights file
-        ap.error(f"--weights: {error}")
+        planner = make("lstm@paper", model=args.model)
+    except (OSError, ValueError) as error:  # a damaged or mismatched model file
+        ap.error(f"--model: {error}")
     controller = StepLengthController.load_default()
     try:
         args.out.mkdir(parents=True, exist_ok=True)

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip import TERRAIN_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
 
@@ -34,9 +34,10 @@ def main(argv=None) -> int:
                     help="apex heights of the starts, m, comma-separated (default: %(default)s)")
     ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
-    unknown = sorted(set(args.families) - set(TERRAIN_FAMILIES))
-    if unknown:
-        ap.error(f"--families: unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+    try:
+        check_families(args.families)
+    except ValueError as error:
+        ap.error(f"--families: {error}")
     if args.seed is None and not set(args.families) <= set(COMMITTED_SEEDS):
         ap.error(f"--families {sorted(set(args.families) - set(COMMITTED_SEEDS))} have no committed suite; "
                  "give --seed")

@@ -18,30 +18,26 @@ from pathlib import Path
 
 from drakeslip.jobs import cli
 from planners.registry import check_label, planner_name
+from verification.paper import TABLES, TITLES, reported
 
-PLANNERS = ("heuristic", "angle", "step", "lstm@paper", "lstm-guided@paper", "lstm@dagger", "lstm", "lstm-guided")
+PLANNERS = ("heuristic", "angle", "step", "lstm@paper", "lstm-guided@paper", "lstm@no-ranker", "lstm", "lstm-guided")
 LABELS = {"heuristic": "Heuristic", "angle": "Angle-space", "step": "Step-space",
           "lstm@paper": "LSTM (@paper: the paper's model and settings)",
           "lstm-guided@paper": "LSTM-Guided (@paper: the paper's model and settings)",
-          "lstm@dagger": "LSTM, expert-trained model, no re-ranker",
+          "lstm@no-ranker": "LSTM, expert-trained model, no re-ranker",
           "lstm": "LSTM (default: expert-trained model, learned re-ranker)",
           "lstm-guided": "LSTM-Guided (default: sub-cell model, lazy, apex-conditioned)"}
-# The paper's Tables II (ditch) and III (step): success %, ODE calls, t_plan [s].
-PAPER = {
-    "ditch": {"heuristic": (24, 0, 2e-5), "angle": (58.6, 22661, 0.15), "step": (86.6, 30857, 0.29),
-              "lstm": (56, 0, 0.007), "lstm-guided": (84, 4885, 0.04)},
-    "step": {"heuristic": (56, 0, 2e-5), "angle": (60, 27021, 0.15), "step": (85, 41146, 0.34),
-             "lstm": (49, 0, 0.007), "lstm-guided": (96, 6932, 0.04)},
-}
 
 
 def ratio(ours: float, paper: float) -> str:
     return f"{ours / paper:.2f}x" if paper else "-"
 
 
-def markdown(results: dict, paper: dict | None) -> str:
-    """One table: our success (with its 95 % interval), ODE calls and planning time per call, and (where the
-    paper has the suite) the paper's numbers and ours / paper."""
+def markdown(results: dict, family: str | None) -> str:
+    """One table: our success (with its 95 % interval), ODE calls and planning time per call, and, for the
+    paper's suite ``family`` (None: another suite), the paper's numbers and ours / paper ("-" for a planner the
+    paper did not run)."""
+    paper = family in TABLES
     head = ("| Planner | Success % (95 % interval) | ODE calls / plan | t_plan mean | t_plan median | "
             "nodes expanded / plan | footholds / plan | Step-space's ODE calls / this |")
     rule = "|---|---|---|---|---|---|---|---|"
@@ -58,10 +54,10 @@ def markdown(results: dict, paper: dict | None) -> str:
         row = (f"| {LABELS.get(name, name)} | {ours[0]:.1f} ({lo:.1f}-{hi:.1f}) | {ours[1]:.0f} | "
                f"{ours[2] * 1e3:.2f} ms | {r['t_plan_median_s'] * 1e3:.2f} ms | {r['nodes_expanded_mean']:.1f} | "
                f"{r['footholds_mean']:.1f} | {vs_step} |")
+        p = reported(family, planner_name(name))
         if paper:
-            p = paper[planner_name(name)]
-            row += (f" {p[0]} / {p[1]} / {p[2]:g} s | {ratio(ours[0], p[0])} / {ratio(ours[1], p[1])} / "
-                    f"{ratio(ours[2], p[2])} |")
+            row += " - | - |" if p is None else (f" {p[0]} / {p[1]} / {p[2]:g} s | {ratio(ours[0], p[0])} / "
+                                                 f"{ratio(ours[1], p[1])} / {ratio(ours[2], p[2])} |")
         rows.append(row)
     return "\n".join(rows)
 
@@ -96,6 +92,10 @@ def main(argv=None) -> int:
         suites = [(family, load_suite(path)) for family, path in paths]
     except (OSError, ValueError) as error:
         ap.error(str(error))
+    names = [suite.name for _, suite in suites]
+    if len(set(names)) < len(names):  # each suite's results go to OUT/results-NAME.json
+        ap.error(f"two suites are named {max(names, key=names.count)!r}: their results files would overwrite each "
+                 "other; give suites with different names")
     cli.announce(argv)
     command = "python3 examples/paper_tables.py " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
     sections = [f"Made by `{command}`; execution on the {args.backend} backend."]
@@ -104,8 +104,7 @@ def main(argv=None) -> int:
         results = evaluate(suite, specs, n_cases=args.cases, executor=executor, cache_path=str(out) + ".cases.jsonl",
                            config=ClosedLoopConfig(backend=args.backend), progress=not args.quiet)
         write_json(out, results)
-        title = {"ditch": "Table II (ditch suite)", "step": "Table III (step suite)"}.get(family, suite.name)
-        sections.append(f"### {title}\n\n" + markdown(results, PAPER.get(family)))
+        sections.append(f"### {TITLES.get(family, suite.name)}\n\n" + markdown(results, family))
     text = "\n\n".join(sections) + "\n"
     print(text)
     if args.markdown:

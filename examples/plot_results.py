@@ -55,16 +55,10 @@ def main(argv=None) -> int:
     except (OSError, ValueError) as error:
         ap.error(str(error))
 
-    import importlib.util
-    from pathlib import Path
-
-    # the paper's Tables II/III live in examples/paper_tables.py, beside this script (examples are no package)
-    spec = importlib.util.spec_from_file_location("paper_tables", Path(__file__).with_name("paper_tables.py"))
-    paper_tables = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(paper_tables)
+    from verification.paper import TABLES
     from verification.plots import cost_figure, noise_figure, noise_runs, success_figure
 
-    written = [success_figure(runs, args.out / "success.png", None if args.no_paper else paper_tables.PAPER),
+    written = [success_figure(runs, args.out / "success.png", None if args.no_paper else TABLES),
                cost_figure(runs, args.out / "cost.png")]
     if any(len({k for k, _, _ in rows}) > 1 for rows in noise_runs(runs).values()):
         written.append(noise_figure(runs, args.out / "noise.png"))

@@ -27,7 +27,7 @@ from pathlib import Path
 
 from drakeslip.jobs import cli
 from drakeslip.jobs.files import atomic_write, read_json
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from planners.checkpoints import EXPERT_WEIGHTS
 from planners.learned.training.config import RankerTrainConfig
 
@@ -48,7 +48,7 @@ def load_shards(paths):
 
 
 # what the shards and round weights in a data folder depend on (--rounds may grow, --jobs and --threads vary)
-SETTINGS = ("weights", "families", "terrains", "shard_terrains", "record_k", "top_k", "explore", "seed", "epochs")
+SETTINGS = ("model", "families", "terrains", "shard_terrains", "record_k", "top_k", "explore", "seed", "epochs")
 
 
 def check_config(data: Path, settings: dict) -> None:
@@ -60,9 +60,9 @@ def check_config(data: Path, settings: dict) -> None:
         recorded = read_json(path, "ranker data config")
         if not isinstance(recorded, dict):
             raise ValueError(f"ranker data config {path} is not a JSON object")
-        if isinstance(recorded.get("weights"), str):  # the same file spelled another way (dir/../x) is no change
-            recorded["weights"] = os.path.normpath(recorded["weights"])
-        settings["weights"] = os.path.normpath(settings["weights"])
+        if isinstance(recorded.get("model"), str):  # the same file spelled another way (dir/../x) is no change
+            recorded["model"] = os.path.normpath(recorded["model"])
+        settings["model"] = os.path.normpath(settings["model"])
         changed = sorted(k for k in set(settings) | set(recorded) if settings.get(k) != recorded.get(k))
         if changed:
             diffs = ", ".join(f"{k}: {recorded.get(k)!r}, now {settings.get(k)!r}" for k in changed)
@@ -78,7 +78,7 @@ def parser() -> cli.ArgumentParser:
                     help="the last round's weights go here")
     ap.add_argument("--data-dir", type=cli.output_folder, default="data/ranker",
                     help="shards and each round's weights")
-    ap.add_argument("--weights", type=cli.input_file, default=str(EXPERT_WEIGHTS),
+    ap.add_argument("--model", type=cli.input_file, default=str(EXPERT_WEIGHTS),
                     help="the footstep model whose footholds are ranked")
     ap.add_argument("--families", type=cli.names, default="ditch,step,mixed",
                     help="terrain families, comma-separated")
@@ -103,13 +103,14 @@ def parser() -> cli.ArgumentParser:
 def main(argv=None):
     ap = parser()
     args = ap.parse_args(argv)
-    for family in args.families:
-        if family not in TERRAIN_FAMILIES:
-            ap.error(f"unknown terrain family {family!r}; choose from {sorted(TERRAIN_FAMILIES)}")
+    try:
+        check_families(args.families)
+    except ValueError as error:
+        ap.error(f"--families: {error}")
     executor = cli.executor(args)
     data = Path(args.data_dir)
     # as the folder records them: the paths and the family list as typed
-    settings = {k: getattr(args, k) for k in SETTINGS} | {"weights": str(args.weights),
+    settings = {k: getattr(args, k) for k in SETTINGS} | {"model": str(args.model),
                                                           "families": ",".join(args.families)}
     try:
         check_config(data, settings)
@@ -127,7 +128,7 @@ def main(argv=None):
     from planners.learned.training.train_ranker import collect_shard, shard_store, train
 
     cfg = RankerTrainConfig(epochs=args.epochs, threads=args.threads)
-    store, weights = shard_store(data), Path(args.weights).read_bytes()
+    store, model = shard_store(data), Path(args.model).read_bytes()
     shards, ranker = [], None
     for r in range(args.rounds):
         tasks, explore = [], args.explore[0] if r == 0 else args.explore[1]
@@ -137,7 +138,7 @@ def main(argv=None):
                 seed = args.seed + 10000 * r + 1000 * sorted(TERRAIN_FAMILIES).index(family) + start
                 name = f"round{r}-{family}-{seed}.npz"
                 shards.append(data / name)
-                tasks.append((name, (family, seed, min(args.shard_terrains, args.terrains - start), weights, learner,
+                tasks.append((name, (family, seed, min(args.shard_terrains, args.terrains - start), model, learner,
                                      args.record_k, args.top_k, explore)))
         todo = sum(store.get(name) is None for name, _ in tasks)
         t0, states = time.time(), 0
@@ -154,7 +155,7 @@ def main(argv=None):
             features, rooms = load_shards(shards)
             net, mean, std, summary = train(features, rooms, cfg, log=lambda row: print(json.dumps(row)))
             save_ranker(ranker, net, mean, std,
-                        {"round": r, "summary": summary, "footstep_model": settings["weights"]})
+                        {"round": r, "summary": summary, "footstep_model": settings["model"]})
             print(json.dumps({"round": r, **summary}))
     with atomic_write(args.out) as f:
         f.write(ranker.read_bytes())

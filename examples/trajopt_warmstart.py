@@ -10,7 +10,7 @@ label, so two settings of one seed run side by side:
 
     python3 examples/trajopt_warmstart.py --suite out/fresh/step-9000.json --every 3 --cases 50 \
         --seeds cold,lstm-guided,lstm-guided@expert --out out/trajopt-expert.json \
-        --options '{"lstm-guided@expert": {"weights": "planners/weights/lstm_expert.pt", "lazy": true,
+        --options '{"lstm-guided@expert": {"model": "planners/weights/lstm_expert.pt", "lazy": true,
                     "conditioning": "apex"}}'
 
 Each case is one planning query, the perception-window problem of the case's start apex toward the suite's goal
@@ -84,7 +84,7 @@ def parser() -> cli.ArgumentParser:
                          "samples), tried until one is verified")
     ap.add_argument("--solver", default=TrajoptConfig.solver, choices=("snopt", "ipopt"),
                     help="snopt falls back to ipopt where it is unavailable")
-    ap.add_argument("--lstm-weights", type=cli.input_file, default=None,
+    ap.add_argument("--seed-model", type=cli.input_file, default=None,
                     help="checkpoint for the lstm and lstm-guided seeds (None: each seed label's own)")
     cli.add_parallel(ap)
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
@@ -169,7 +169,7 @@ def main(argv=None) -> int:
     try:
         config = TrajoptConfig(knots=args.knots, collocation=args.collocation, max_hops=args.max_hops,
                                solver=args.solver, starts=args.starts,
-                               lstm_weights=str(args.lstm_weights) if args.lstm_weights else None)
+                               seed_model=str(args.seed_model) if args.seed_model else None)
         options = label_options(args.options, seeds, kind="seed")
     except ValueError as error:
         refuse(error)

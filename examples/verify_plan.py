@@ -20,9 +20,7 @@ import math
 import sys
 
 from drakeslip.jobs import cli
-
-MODES = ("angles", "footholds", "auto")
-TOLERANCE = 0.01  # verification.plan_check.TOLERANCE, here so that --help imports nothing heavy
+from verification.plan_check_options import MODES, TOLERANCE
 
 
 def main(argv=None) -> int:

@@ -5,7 +5,7 @@ from pathlib import Path
 
 WEIGHTS_DIR = Path(__file__).with_name("weights")
 # The paper's CNN+LSTM, trained on Angle-space search trees (Table I): examples/generate_dataset.py, train_lstm.py
-PAPER_WEIGHTS = WEIGHTS_DIR / "lstm.pt"
+PAPER_WEIGHTS = WEIGHTS_DIR / "lstm_paper.pt"
 # 2.5 cm output bins, trained on Step-space trees with soft labels over each step's viable set
 SUBCELL_WEIGHTS = WEIGHTS_DIR / "lstm_subcell.pt"
 # trained on the goal-reaching expert's rollouts and two DAgger rounds, for the one-step mode planner

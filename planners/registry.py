@@ -26,20 +26,20 @@ _PLANNERS = {
 
 PRESETS = {
     # the paper's LSTM planner: its model (Table I data), the mode fed back for up to 12 steps
-    "lstm@paper": {"weights": str(PAPER_WEIGHTS), "max_steps": 12, "ranker": None},
+    "lstm@paper": {"model": str(PAPER_WEIGHTS), "max_steps": 12, "ranker": None},
     # the default without its learned re-ranker: the expert model's mode, one step ahead
-    "lstm@dagger": {"ranker": None},
+    "lstm@no-ranker": {"ranker": None},
     # the paper's LSTM-guided search: its model, path-conditioned, every sampled child simulated at once
-    "lstm-guided@paper": {"weights": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path"},
+    "lstm-guided@paper": {"model": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path"},
     # the default search sampling the expert model instead (the trajectory optimizer's best seed)
-    "lstm-guided@expert": {"weights": str(EXPERT_WEIGHTS)},
+    "lstm-guided@expert": {"model": str(EXPERT_WEIGHTS)},
     # children that survive realistic noise and leave the hopper where it can go on (planners/search/robust.py),
     # replanning at every apex; the sampled search falls back on the whole grid before giving up
     "step@robust": {"robustness": {}},
     "lstm-guided@robust": {"robustness": {}, "grid_fallback": True},
     # trajectory optimization that also maximizes the plan's least spring travel and friction to spare
     # (planners/trajopt/margins.py; planners/trajopt/config.py says why these weights)
-    "trajopt@robust": {"config": {"weights": {"stroke": 10.0, "friction": 1.0}}},
+    "trajopt@robust": {"config": {"objective": {"stroke": 10.0, "friction": 1.0}}},
 }
 
 
@@ -114,7 +114,7 @@ def make(label: str, **options):
 
 
 def files_read(label: str, options: dict | None = None) -> dict:
-    """The files (weights) the planner ``label`` reads when built with ``options``, by option name."""
+    """The files (models, rankers) the planner ``label`` reads when built with ``options``, by option name."""
     return planner_class(planner_name(check_label(label))).files_read(options_for(label, options))
 
 
@@ -128,7 +128,7 @@ def make_planners(specs: dict, controller=None) -> dict:
         shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
         try:
             planners[label] = make(label, **shared, **(options or {}))
-        except (TypeError, ValueError, OSError) as error:  # TypeError: an unknown keyword; OSError: missing weights
+        except (TypeError, ValueError, OSError) as error:  # TypeError: an unknown keyword; OSError: a missing file
             raise ValueError(f"options for {label}: {error}") from error
     return planners
 

@@ -1,5 +1,6 @@
-"""Adversarial plan files: a certificate means the plan as written, so every tampered plan is refused, either as a
-counterexample naming the first mismatch (exit 1) or as a malformed file (exit 2, one line)."""
+"""Adversarial plan files: a certificate means the plan as written, so every tampered plan gets its own verdict: a
+counterexample of a given kind at a given hop, the first mismatch (exit 1), or a malformed file (exit 2, one line
+naming the field)."""
 import json
 
 import pytest
@@ -53,17 +54,19 @@ def cut(n):
     return edit
 
 
+# tampering -> (edit, the counterexample's kind and hop, its reason), as in docs/verification.md's table
 COUNTEREXAMPLES = {
-    "one foothold moved 5 cm": (move(2, 0.05), "FOOTHOLD MISSED at hop 2"),
-    "the last foothold moved 2 cm": (move(3, -0.02), "FOOTHOLD MISSED at hop 3"),
-    "a predicted apex 3 cm higher": (move(1, 0.03, "apexes"), "APEX MISSED after hop 1"),
+    "one foothold moved 5 cm": (move(2, 0.05), ("foothold", 2), "FOOTHOLD MISSED at hop 2"),
+    "the last foothold moved 2 cm": (move(3, -0.02), ("foothold", 3), "FOOTHOLD MISSED at hop 3"),
+    "a predicted apex 3 cm higher": (move(1, 0.03, "apexes"), ("apex", 1), "APEX MISSED after hop 1"),
     "a predicted apex's speed changed": (lambda d: d["apexes"][0].__setitem__(2, d["apexes"][0][2] + 0.05),
-                                         "APEX MISSED after hop 0"),
-    "cut to 1 of 4 hops": (cut(1), "SHORT OF TARGET after its 1 hops: the plan claims target x=5.9625, its last "
-                                   "touchdown is at x=-0.0125"),
-    "cut to 3 of 4 hops": (cut(3), "SHORT OF TARGET after its 3 hops"),
-    "a target beyond its footholds": (lambda d: d.update(target_x=9.0), "SHORT OF TARGET after its 4 hops"),
-    "a leg angle changed": (lambda d: d["leg_angles"].__setitem__(1, d["leg_angles"][1] + 0.02),
+                                         ("apex", 0), "APEX MISSED after hop 0"),
+    "cut to 1 of 4 hops": (cut(1), ("target", 0), "SHORT OF TARGET after its 1 hops: the plan claims target "
+                                                  "x=5.9625, its last touchdown is at x=-0.0125"),
+    "cut to 3 of 4 hops": (cut(3), ("target", 2), "SHORT OF TARGET after its 3 hops"),
+    "a target beyond its footholds": (lambda d: d.update(target_x=9.0), ("target", 3),
+                                      "SHORT OF TARGET after its 4 hops"),
+    "a leg angle changed": (lambda d: d["leg_angles"].__setitem__(1, d["leg_angles"][1] + 0.02), ("foothold", 1),
                             "FOOTHOLD MISSED at hop 1"),
 }
 
@@ -73,13 +76,14 @@ FAST = ("one foothold moved 5 cm", "cut to 1 of 4 hops")  # the rest run with -m
 
 @pytest.mark.parametrize("name", [n if n in FAST else pytest.param(n, marks=pytest.mark.slow) for n in COUNTEREXAMPLES])
 def test_a_tampered_plan_gets_a_counterexample_naming_the_first_mismatch(tmp_path, run_script, plan_doc, name):
-    edit, reason = COUNTEREXAMPLES[name]
+    edit, (kind, hop), reason = COUNTEREXAMPLES[name]
     (tmp_path / "check.json").unlink(missing_ok=True)
     code, out, _ = verdict(tmp_path, run_script, tampered(plan_doc, edit), "--out", tmp_path / "check.json")
     assert code == 1 and "CERTIFIED" not in out
     assert f"COUNTEREXAMPLE: {reason}" in out, out
     check = json.loads((tmp_path / "check.json").read_text())
-    assert check["verdict"] == "counterexample" and reason in check["reason"]
+    assert check["verdict"] == "counterexample" and (check["kind"], check["hop"]) == (kind, hop), check["reason"]
+    assert reason in check["reason"]
     assert set(check["hybrid"]) >= {"mode", "leg_angle", "foot_x", "foot_z", "hops"} and len(check["state"]) == 4
 
 
@@ -128,14 +132,16 @@ def test_a_start_inside_a_ditch_is_malformed(plan_doc):
 @pytest.mark.slow
 def test_a_plan_without_angles_is_checked_on_its_footholds_and_apexes(plan_doc):
     """Footholds mode (no angles): the controller aims at the footholds as written, so a moved foothold is
-    followed, and the predicted apexes are what catch it."""
+    followed, and the predicted apexes are what catch it; without them, the hop after it is: from where the moved
+    foothold leaves the hopper, the controller lands 5 cm short of the next one."""
     doc = tampered(plan_doc, lambda d: d.update(leg_angles=[None] * 4))
     assert isinstance(check_plan(PlanRecord.from_dict(doc)), Certificate)
     moved = check_plan(PlanRecord.from_dict(tampered(doc, move(1, 0.02))))
     assert isinstance(moved, Counterexample) and moved.kind == "apex" and moved.hop == 1, moved.format()
     no_apexes = tampered(doc, lambda d: d.update(apexes=[[None] * 3] * 4))
     followed = check_plan(PlanRecord.from_dict(tampered(no_apexes, move(1, 0.02))))
-    assert isinstance(followed, Certificate) or followed.hop >= 2  # hop 1 itself goes where the file says
+    assert isinstance(followed, Counterexample) and (followed.kind, followed.hop) == ("foothold", 2), followed.format()
+    assert followed.trace[1]["foothold"] == pytest.approx(followed.trace[1]["planned_foothold"], abs=0.01)
 
 
 @pytest.mark.slow

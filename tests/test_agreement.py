@@ -1,6 +1,8 @@
 """The fast and the Drake step maps agree on random hops over step terrain (verification.backend_agreement)."""
+import numpy as np
 import pytest
 
+import drakeslip as ds
 from verification.backend_agreement import compare_backends, draw_cases
 
 TOLERANCE = 2e-3  # m
@@ -27,3 +29,14 @@ def test_cases_cover_several_outcomes_and_are_reproducible(report):
     assert draw_cases(5, seed=3, families=("step", "ditch")) == draw_cases(5, seed=3, families=("step", "ditch"))
     with pytest.raises(ValueError, match="unknown terrain families.*'hills'"):
         draw_cases(1, seed=0, families=("hills",))
+
+
+def test_the_benchmarked_hops_succeed_and_agree():
+    """The hop tests/test_bench_stepmap.py times (step_world(3), apex (0, 0.6, 2), leg angle 0.25) on both step maps,
+    and its batch of 30 leg angles across the friction cone, of which several land."""
+    terrain, params = ds.step_world(3), ds.SlipParams()
+    fast, drake = (ds.step((0.0, 0.6, 2.0), 0.25, terrain, params, backend=b) for b in ("fast", "drake"))
+    assert fast.ok and drake.ok
+    assert abs(fast.touchdown_x - drake.touchdown_x) <= TOLERANCE
+    angles = np.linspace(-params.max_leg_angle, params.max_leg_angle, 30)
+    assert ds.step_batch((0.0, 0.6, 2.0), angles, terrain, params).ok.sum() >= 5

@@ -1,5 +1,6 @@
 """pytest-benchmark: one plan of each planner on a ditch terrain from the committed suite's kind, and one
-training step of the footstep model."""
+training step of the footstep model. Timing only: that every label plans this query is checked in
+tests/test_planners.py, that a training step lowers the loss in tests/test_lstm.py."""
 import pytest
 
 from drakeslip import ApexState, SlipParams, ditch_world
@@ -22,8 +23,7 @@ def test_bench_one_plan(benchmark, controller, label):
     planner = make_planners({label: None}, controller)[label]
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS),
                               rounds=5 if label != "heuristic" else 50, warmup_rounds=1)
-    assert plan.success, plan.message
-    benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
+    benchmark.extra_info.update(success=plan.success, ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
                                 footholds=len(plan.footholds))
 
 
@@ -49,9 +49,7 @@ def test_bench_one_training_step(benchmark):
         opt.step()
         return loss.item()
 
-    first = step()
-    benchmark.pedantic(step, rounds=3, warmup_rounds=0)
-    assert step() < first  # it trains
+    benchmark.pedantic(step, rounds=3, warmup_rounds=1)
 
 
 @pytest.mark.parametrize("n", [4, 40])
@@ -60,23 +58,17 @@ def test_bench_controller_call(benchmark, controller, n):
     call, Step-space a node's whole grid; the fixed cost per call is what sets their planning times."""
     import numpy as np
 
-    footholds = np.linspace(0.3, 1.2, n)
-    theta = benchmark(controller.leg_angles, APEX, footholds, TERRAIN)
-    assert theta.shape == (n,) and np.all(np.isfinite(theta))
+    benchmark(controller.leg_angles, APEX, np.linspace(0.3, 1.2, n), TERRAIN)
 
 
 def test_bench_lstm_step(benchmark):
     """One step of the footstep model in numpy (what LSTM-guided pays per node it expands)."""
-    import numpy as np
-
     from planners.learned.inputs import encode_window
     from planners.learned.lstm import FootstepDistribution, load_model
 
     net = FootstepDistribution(load_model())  # the paper's model
     terrain, apex, s0, _ = net.inputs(encode_window(TERRAIN, ApexState(*APEX)))
-    state = net.model.initial_state(apex)
-    logits, _ = benchmark(net.model.step, terrain, s0, state)
-    assert logits.shape == (1, 110) and np.all(np.isfinite(logits))
+    benchmark(net.model.step, terrain, s0, net.model.initial_state(apex))
 
 
 @pytest.mark.parametrize("label", ["step", "lstm-guided@paper", "lstm-guided"])
@@ -85,6 +77,5 @@ def test_bench_one_plan_on_the_drake_step_map(benchmark, controller, label):
     its ODE calls as for the paper's planners. One round each: a Step-space plan takes tens of seconds."""
     planner = make_planners({label: {"step_map": "drake", "max_time_s": 300}}, controller)[label]
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS), rounds=1, iterations=1)
-    assert plan.success, plan.message
-    benchmark.extra_info.update(ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
-                                seconds_per_ode_call=benchmark.stats.stats.mean / plan.ode_calls)
+    benchmark.extra_info.update(success=plan.success, ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
+                                seconds_per_ode_call=benchmark.stats.stats.mean / max(plan.ode_calls, 1))

@@ -107,16 +107,60 @@ def test_the_pruning_keeps_every_apex_of_a_witness_and_finds_the_same_verdict():
     assert pruned["verdict"] == mc.TRAVERSABLE
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize("seed", [90004, 90007, 90011])
-def test_the_search_finds_no_witness_where_the_energy_argument_proves_a_step_world_uncrossable(seed):
-    """Low-energy starts on step worlds, as in the issue's suite (apex 0.65-0.75 m above the ground, 0.8-2.2 m/s):
-    where the argument proves the goal unreachable, 60 s of search without it finds no witness either."""
+def blocking_stretch(apex, ground: Terrain, goal_x: float):
+    """A run of cells between the start and the goal, all at or above the landing ceiling, too long for one flight to
+    pass over, found from (2), (3) and (5) alone: no foot can land on it, so a body crossing it is in stance only
+    within L0 s of its ends, and one flight above its lowest level l spans at most 2 (H - l) in x. Returns the
+    run's (start, end) or None."""
+    H = eb.energy_height(apex, PARAMS) + eb.ENERGY_SLACK
+    ceiling, reach = eb.landing_ceiling(apex, PARAMS), PARAMS.leg_length * math.sin(math.atan(PARAMS.friction))
+    lo = ground.x0 + np.arange(ground.heights.size) * ground.cell
+    high = (ground.heights >= ceiling) & (lo + ground.cell > apex[0]) & (lo < goal_x)
+    for start in np.flatnonzero(high & ~np.r_[False, high[:-1]]):
+        end = start + int(np.argmin(np.r_[high[start:], False]))
+        a, b = lo[start], min(lo[end - 1] + ground.cell, goal_x)
+        if b - a - 2 * reach > 2 * (H - ground.heights[start:end].min()) + eb.GEOMETRY_SLACK:
+            return a, b
+    return None
+
+
+# Low-energy starts on step worlds (apex 0.65-0.75 m above the ground, 0.8-1.5 m/s) that each meet a stretch of
+# terrain above their landing ceiling too long to fly over (``blocking_stretch``): the argument must prove them.
+MUST_PROVE = [(90004, 0.65, 0.8), (90004, 0.65, 1.5), (90004, 0.75, 0.8), (90007, 0.65, 0.8), (90007, 0.65, 1.5),
+              (90007, 0.75, 0.8), (90011, 0.65, 0.8)]
+# Low-energy starts the argument proves (apex 0.65 or 0.75 m above the ground, 0.8 or 1.5 m/s): some meet a
+# blocking stretch, the others are proved only through its cell graph (the ways between footholds).
+SEARCHED = [(90004, 0.65, 0.8), (90004, 0.65, 1.5), (90004, 0.75, 1.5), (90007, 0.65, 0.8), (90007, 0.65, 1.5),
+            (90007, 0.75, 1.5), (90011, 0.65, 0.8), (90011, 0.65, 1.5)]
+
+
+def start(seed: int, z: float, v: float):
     ground = step_world(seed)
-    for z, v in ((0.65, 0.8), (0.65, 1.5), (0.75, 1.5)):
-        apex = (-1.0, z + ground.height_at(-1.0), v)
-        if eb.prove_unreachable(apex, ground, 10.0, PARAMS) is None:
-            continue
-        r = mc.model_check(apex, ground, 10.0, PARAMS, levels=(mc.COARSE,), budget=Budget(10 ** 6, max_time_s=60.0),
-                           energy=False, drake_check=False)
-        assert r["verdict"] != mc.TRAVERSABLE, (seed, z, v)
+    return (-1.0, z + ground.height_at(-1.0), v), ground
+
+
+@pytest.mark.parametrize("seed, z, v", MUST_PROVE)
+def test_a_stretch_above_the_landing_ceiling_too_long_to_fly_over_is_proved(seed, z, v):
+    apex, ground = start(seed, z, v)
+    assert blocking_stretch(apex, ground, 10.0) is not None
+    proof = eb.prove_unreachable(apex, ground, 10.0, PARAMS)
+    assert proof is not None and proof["landing_ceiling"] == pytest.approx(eb.landing_ceiling(apex, PARAMS), abs=1e-6)
+
+
+def test_a_blocking_stretch_is_found_only_where_one_blocks():
+    """The test's own premise: a fast start (more energy) meets no blocking stretch, and nothing is proved."""
+    apex, ground = start(90004, 0.75, 2.2)
+    assert blocking_stretch(apex, ground, 10.0) is None and eb.prove_unreachable(apex, ground, 10.0, PARAMS) is None
+    assert blocking_stretch(START, terrain((1.5, 8.0, eb.landing_ceiling(START, PARAMS) + 0.01)), 3.0) is not None
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed, z, v", SEARCHED)
+def test_the_search_finds_no_witness_where_the_energy_argument_proves_a_step_world_uncrossable(seed, z, v):
+    """Where the argument proves the goal unreachable (each of these starts is proved), 60 s of search without it
+    finds no witness either."""
+    apex, ground = start(seed, z, v)
+    assert eb.prove_unreachable(apex, ground, 10.0, PARAMS) is not None
+    r = mc.model_check(apex, ground, 10.0, PARAMS, levels=(mc.COARSE,), budget=Budget(10 ** 6, max_time_s=60.0),
+                       energy=False, drake_check=False)
+    assert r["verdict"] != mc.TRAVERSABLE, (seed, z, v)

@@ -218,16 +218,16 @@ def test_defaults_are_the_best_settings_and_the_papers_are_presets():
     updated = make_planners({"lstm@paper": {"max_steps": 2}})["lstm@paper"]
     assert updated.max_steps == 2 and updated.ranker is None
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    results = benchmark.evaluate(suite, {"lstm@dagger": {}}, n_cases=1, progress=False,
+    results = benchmark.evaluate(suite, {"lstm@no-ranker": {}}, n_cases=1, progress=False,
                                  config=ClosedLoopConfig(backend="fast"))
-    explicit = benchmark.evaluate(suite, {"lstm@dagger": PRESETS["lstm@dagger"]}, n_cases=1, progress=False,
+    explicit = benchmark.evaluate(suite, {"lstm@no-ranker": PRESETS["lstm@no-ranker"]}, n_cases=1, progress=False,
                                   config=ClosedLoopConfig(backend="fast"))
-    strip = lambda r: [[p["footholds"] for p in c["plans"]] for c in r["planners"]["lstm@dagger"]["cases"]]
+    strip = lambda r: [[p["footholds"] for p in c["plans"]] for c in r["planners"]["lstm@no-ranker"]["cases"]]
     assert strip(results) == strip(explicit)
 
 
 def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
-    """Retraining the ranker at the same path must not reuse cached cases (nor may the LSTM weights)."""
+    """Retraining the ranker at the same path must not reuse cached cases (nor may the LSTM model)."""
     from planners.checkpoints import RANKER_WEIGHTS
 
     suite = make_suite("ditch", seed=7, n_terrains=1)
@@ -247,7 +247,7 @@ def test_the_cache_key_follows_the_checkpoint_a_trajopt_seed_reads(tmp_path):
     suite = make_suite("ditch", seed=7, n_terrains=1)
     lstm = tmp_path / "lstm.pt"
     lstm.write_bytes(PAPER_WEIGHTS.read_bytes())
-    options = {"seed": "lstm-guided@x", "seed_options": {"weights": str(lstm)}}
+    options = {"seed": "lstm-guided@x", "seed_options": {"model": str(lstm)}}
     key = lambda: benchmark.fingerprint(suite, "trajopt", options, ClosedLoopConfig(), None)
     before = key()
     assert key() == before
@@ -258,7 +258,7 @@ def test_the_cache_key_follows_the_checkpoint_a_trajopt_seed_reads(tmp_path):
 
 
 def test_cost_weights_given_as_options_are_part_of_the_cache_key():
-    """Angle- and Step-space take ``weights`` as cost weights, not a checkpoint file: a list is keyed as given."""
+    """Angle- and Step-space take ``cost_weights`` (a list, not a file): the list is keyed as given."""
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    key = lambda w: benchmark.fingerprint(suite, "step@w", {"weights": w}, ClosedLoopConfig(), None)
+    key = lambda w: benchmark.fingerprint(suite, "step@w", {"cost_weights": w}, ClosedLoopConfig(), None)
     assert key([1, 0, 2]) == key([1, 0, 2]) != key([1, 1, 2])

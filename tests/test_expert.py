@@ -1,4 +1,4 @@
-"""The goal-reaching expert (planners/expert.py) and the sequences made from its rollouts."""
+"""The goal-reaching expert (planners/learned/training/expert.py) and the sequences made from its rollouts."""
 import numpy as np
 import pytest
 
@@ -82,7 +82,7 @@ def test_committed_expert_model_plans_one_hop_that_works():
     import planners
 
     terrain, params = ds.ditch_world(1003).perceived(-1.0), ds.SlipParams(friction=0.8)
-    planner = planners.make("lstm@dagger")
+    planner = planners.make("lstm@no-ranker")
     assert planner.model.config.hidden == 256 and planner.model.config.subcells == 4
     for apex in [(-1.0, 0.8, 1.0), (-1.0, 1.0, 2.0), (-1.0, 0.8, 3.0)]:
         plan = planner.plan(apex, terrain, 10.0, params)
@@ -111,7 +111,7 @@ def test_dagger_rollout_follows_the_policy_only_where_it_reaches_the_goal():
 
     terrain, params, apex = ds.step_world(1005), ds.SlipParams(friction=0.8), ds.ApexState(-1.0, 0.9, 1.5)
     expert = GoalReachingExpert()
-    learned = planners.make("lstm@dagger", controller=expert.controller)
+    learned = planners.make("lstm@no-ranker", controller=expert.controller)
     states = expert.rollout(apex, terrain, 10.0, params, np.random.default_rng(0), policy=learned)
     labelled = [(label, x) for _, label, x in states if label.choice >= 0]
     assert len(labelled) >= 5 and all(expert.goal_reaching(label, x) for label, x in labelled)
@@ -155,11 +155,11 @@ def test_the_top_k_oracle_is_the_mode_planner_at_k_1_and_picks_a_goal_reaching_f
     diagnostics = example("lstm_diagnostics")
     params, apex = ds.SlipParams(friction=0.8), ds.ApexState(0.0, 0.7, 1.0)
     window = ds.ditch_world(1003).perceived(apex.x)
-    mode = float(make("lstm@dagger").plan(apex, window, 10.0, params).footholds[0])
-    one = diagnostics.TopKOracle(1, weights=EXPERT_WEIGHTS).plan(apex, window, 10.0, params)
+    mode = float(make("lstm@no-ranker").plan(apex, window, 10.0, params).footholds[0])
+    one = diagnostics.TopKOracle(1, model=EXPERT_WEIGHTS).plan(apex, window, 10.0, params)
     assert one.footholds.tolist() == [mode]
 
-    oracle = diagnostics.TopKOracle(8, weights=EXPERT_WEIGHTS)
+    oracle = diagnostics.TopKOracle(8, model=EXPERT_WEIGHTS)
     pick = float(oracle.plan(apex, window, 10.0, params).footholds[0])
     label, apexes, target_x = oracle.expert.candidates(apex, window, 10.0, params)
 

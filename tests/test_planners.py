@@ -5,13 +5,16 @@ import numpy as np
 import pytest
 
 import planners
-from drakeslip import ApexState, SlipParams, Terrain, step_batch
+from drakeslip import ApexState, SlipParams, Terrain, ditch_world, step_batch
 from drakeslip.terrain import DITCH_HEIGHT
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.suite import Case
+from planners.registry import labels, make_planners, planner_name
 
 PARAMS = SlipParams(friction=0.8)
 NAMES = ["heuristic", "angle", "step"]
+# the query tests/test_bench_planners.py times: a ditch terrain of the committed suite's kind, seen from x = 0
+BENCH_TERRAIN, BENCH_APEX = ditch_world(1003).perceived(0.0), (0.0, 0.9, 2.0)
 
 
 @pytest.fixture(scope="module")
@@ -180,3 +183,26 @@ def test_the_foothold_grid_covers_every_touchdown_the_friction_cone_reaches():
         assert np.all((landed >= lo - 1e-9) & (landed <= hi + 1e-9)), (k, apex, lo, hi, landed.min(), landed.max())
         over_other_ground += bool(landed.size) and terrain.height_at(landed[0]) != terrain.height_at(x)
     assert over_other_ground >= 5  # the cases the range once got wrong are among those drawn
+
+
+def plans_the_benchmarked_ditch(planner):
+    plan = planner.plan(BENCH_APEX, BENCH_TERRAIN, 10.0, PARAMS)
+    assert plan.success, plan.message
+    assert plan.footholds[0] > BENCH_APEX[0] - PARAMS.leg_length and plan.footholds[-1] < BENCH_APEX[0] + 8.0
+    assert np.all(BENCH_TERRAIN.height_at(plan.footholds) > BENCH_TERRAIN.ditch_height)  # none in a ditch
+    return plan
+
+
+@pytest.mark.parametrize("label", [label for label in labels() if planner_name(label) != "trajopt"])
+def test_every_label_plans_the_benchmarked_ditch(controller, label):
+    """Every planner name and preset (trajopt: tests/test_trajopt.py) plans the query the benchmarks time, with
+    footholds on solid ground inside the window; the learned mode planners with no step-map call."""
+    plan = plans_the_benchmarked_ditch(make_planners({label: None}, controller)[label])
+    assert (plan.ode_calls == 0) == (planner_name(label) in ("heuristic", "lstm"))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("label", ["step", "lstm-guided@paper", "lstm-guided"])
+def test_the_benchmarked_ditch_is_planned_on_the_drake_step_map(controller, label):
+    """``step_map="drake"`` (every candidate hop simulated on Drake, 15-60 s a plan) plans it too."""
+    plans_the_benchmarked_ditch(make_planners({label: {"step_map": "drake", "max_time_s": 300}}, controller)[label])

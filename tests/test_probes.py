@@ -17,7 +17,7 @@ PROBES = [
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--controller", "{missing}"], "--controller:"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--controller", "{bad}"], "bad.pt"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--planners", "lstm",
-                  "--options", '{{"lstm": {{"weights": "{bad}"}}}}'], "bad.pt"),
+                  "--options", '{{"lstm": {{"model": "{bad}"}}}}'], "bad.pt"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--executed", "0"], "--executed: must be an integer in [1, inf], got"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--executed", "-1"], "--executed: must be an integer in [1, inf], got"),
     ("evaluate", ["--suite", SUITE, "--out", "{dir}/../r.json", "--planners", ","], "--planners: must name at least one"),

@@ -38,11 +38,11 @@ class Recording(LSTMPlanner):
 
 @pytest.mark.parametrize("top_k", [1, 2, 3])
 def test_the_ranker_picks_among_the_top_k_first_footholds(tmp_path, top_k):
-    last = Recording(weights=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "last.pt", 1.0), top_k=top_k)
+    last = Recording(model=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "last.pt", 1.0), top_k=top_k)
     plan = last.plan(APEX, WINDOW, 10.0, PARAMS)
     assert plan.footholds.tolist() == [last.seen[top_k - 1]]
-    first = make("lstm", weights=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "first.pt", -1.0), top_k=3)
-    mode = make("lstm@dagger").plan(APEX, WINDOW, 10.0, PARAMS)
+    first = make("lstm", model=EXPERT_WEIGHTS, max_steps=1, ranker=rank_ranker(tmp_path / "first.pt", -1.0), top_k=3)
+    mode = make("lstm@no-ranker").plan(APEX, WINDOW, 10.0, PARAMS)
     assert first.plan(APEX, WINDOW, 10.0, PARAMS).footholds.tolist() == mode.footholds.tolist() == [last.seen[0]]
     assert plan.ode_calls == 0
 
@@ -52,7 +52,7 @@ def test_the_committed_ranker_plans_with_no_step_map_call():
     assert planner.ranker is not None and planner.max_steps == 1
     plan = planner.plan(APEX, WINDOW, 10.0, PARAMS)
     assert plan.success and plan.ode_calls == 0 and plan.footholds.size == 1
-    assert plan.footholds.tolist() == make("lstm", weights=EXPERT_WEIGHTS, ranker=RANKER_WEIGHTS).plan(
+    assert plan.footholds.tolist() == make("lstm", model=EXPERT_WEIGHTS, ranker=RANKER_WEIGHTS).plan(
         APEX, WINDOW, 10.0, PARAMS).footholds.tolist()
 
 
@@ -81,11 +81,11 @@ def test_a_corrupt_or_mismatched_ranker_file_is_a_clear_error(tmp_path):
     with pytest.raises(ValueError, match="does not match the ranker.*features"):
         FootholdRanker(tmp_path / "old.pt")
     with pytest.raises(ValueError, match="top_k must be a positive integer, got 0"):
-        make("lstm", weights=EXPERT_WEIGHTS, top_k=0)
+        make("lstm", model=EXPERT_WEIGHTS, top_k=0)
 
 
 def test_one_hop_room_labels_a_failed_hop_a_hop_past_the_target_and_one_with_room():
-    planner = make("lstm@dagger")
+    planner = make("lstm@no-ranker")
     problem = planner.problem(APEX, WINDOW, 10.0, PARAMS, 0.0)
     mode = planner.plan(APEX, WINDOW, 10.0, PARAMS).footholds
     x = np.array([mode[0], mode[0], 0.3])

@@ -153,12 +153,28 @@ def test_unknown_seed_errors_clearly(flat_problem):
         TrajoptPlanner(seed="astar")
 
 
+def test_the_seed_model_is_the_checkpoint_an_lstm_seed_reads_unless_its_options_name_one():
+    """``TrajoptConfig.seed_model`` (``trajopt_warmstart.py --seed-model``) replaces an LSTM seed's ``model``; a
+    seed's own ``model`` option wins; other seeds read no model."""
+    from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
+    from planners.registry import files_read
+
+    config = {"seed_model": str(PAPER_WEIGHTS)}
+    assert files_read("trajopt", {"seed": "lstm-guided", "config": config}) == {"seed.model": str(PAPER_WEIGHTS)}
+    assert files_read("trajopt", {"seed": "lstm", "config": config}) == {"seed.model": str(PAPER_WEIGHTS),
+                                                                       "seed.ranker": str(RANKER_WEIGHTS)}
+    own = {"seed": "lstm-guided", "seed_options": {"model": str(EXPERT_WEIGHTS)}, "config": config}
+    assert files_read("trajopt", own) == {"seed.model": str(EXPERT_WEIGHTS)}
+    assert files_read("trajopt", {"seed": "step", "config": config}) == {}
+    assert seed_planner("lstm-guided", None, 24, str(PAPER_WEIGHTS), 0).net.model.config == load_model().config
+
+
 def test_a_seed_variant_plans_with_its_options(flat_problem):
     """NAME@VARIANT is the named seed's planner built with the given options; options it does not take, a
-    missing weights file and options for the cold gait are errors naming the seed."""
+    missing model file and options for the cold gait are errors naming the seed."""
     from planners.checkpoints import EXPERT_WEIGHTS
 
-    options = {"weights": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
+    options = {"model": str(EXPERT_WEIGHTS), "lazy": True, "conditioning": "apex"}
     planner = seed_planner("lstm-guided@expert", options, TrajoptConfig.max_hops, None, 0)
     assert planner.lazy and planner.conditioning == "apex"
     preset = seed_planner("lstm-guided@expert", None, TrajoptConfig.max_hops, None, 0)  # planners.registry.PRESETS
@@ -169,7 +185,7 @@ def test_a_seed_variant_plans_with_its_options(flat_problem):
     with pytest.raises(ValueError, match="options for the lstm-guided@x seed: .*'bogus'"):
         check_seed("lstm-guided@x", {"bogus": 1})
     with pytest.raises(ValueError, match="options for the lstm@x seed: .*nope.pt"):
-        check_seed("lstm@x", {"weights": "nope.pt"})
+        check_seed("lstm@x", {"model": "nope.pt"})
     with pytest.raises(ValueError, match="the cold@x seed is a fixed gait and takes no options"):
         check_seed("cold@x", {"extra_hops": 1})
     with pytest.raises(ValueError, match="unknown seed 'astar@x'"):
@@ -256,7 +272,7 @@ def test_the_one_step_lstm_seed_is_asked_again_at_each_predicted_apex():
     from planners import make
     from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS
 
-    options = {"weights": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)}
+    options = {"model": str(EXPERT_WEIGHTS), "max_steps": 1, "ranker": str(RANKER_WEIGHTS)}
     terrain = ditch_world(1003)
     problem = make_problem(APEX, terrain, 4.0, PARAMS)
     footholds, calls = seed_footholds("lstm@ranked", problem, options=options)

@@ -6,7 +6,7 @@ import pytest
 
 from drakeslip import SlipParams, Terrain
 from planners.registry import make
-from planners.trajopt.config import CostWeights, TrajoptConfig
+from planners.trajopt.config import ObjectiveWeights, TrajoptConfig
 from planners.trajopt.guess import build_guess
 from planners.trajopt.margins import knot_margins
 from planners.trajopt.planner import make_problem
@@ -27,17 +27,17 @@ def flat():
     return problem, footholds, segs
 
 
-def program_for(flat, weights: CostWeights):
+def program_for(flat, objective: ObjectiveWeights):
     problem, footholds, segs = flat
-    config = TrajoptConfig(weights=weights)
+    config = TrajoptConfig(objective=objective)
     program = SlipTrajopt(problem.apex, problem.terrain, segs, PARAMS, problem.target_x, config)
     guess = build_guess(problem.apex, footholds, segs, problem.terrain, PARAMS, config.node_times())
     return program, guess
 
 
-def solved(flat, weights: CostWeights):
+def solved(flat, objective: ObjectiveWeights):
     """The solution's least margins over the knots, and whether its leg angles verify on Drake."""
-    program, guess = program_for(flat, weights)
+    program, guess = program_for(flat, objective)
     result = program.solve(guess)
     assert result.converged, result.status
     problem = flat[0]
@@ -50,18 +50,18 @@ def solved(flat, weights: CostWeights):
 
 @pytest.fixture(scope="module")
 def default_margins(flat):
-    return solved(flat, CostWeights())
+    return solved(flat, ObjectiveWeights())
 
 
-def test_default_weights_leave_the_program_as_it_was(flat):
+def test_default_weights_add_no_margin_terms(flat):
     """Margin weights of 0 (the default) add no variable, constraint group or cost: N hops have exactly the leg
     angle, fall time, foothold, duration, K+1 stance states and next apex each."""
-    program, guess = program_for(flat, CostWeights())
+    program, guess = program_for(flat, ObjectiveWeights())
     N, K = program.N, program.K
     assert program.margins == {}
     assert program.prog.num_vars() == N * (4 + 4 * (K + 1) + 3)
     assert not {"stroke_margin", "friction_margin"} & set(program.groups)
-    robust, _ = program_for(flat, CostWeights(stroke=1.0, friction=1.0))
+    robust, _ = program_for(flat, ObjectiveWeights(stroke=1.0, friction=1.0))
     assert robust.prog.num_vars() == program.prog.num_vars() + 2
     assert len(robust.prog.GetAllCosts()) == len(program.prog.GetAllCosts()) + 2
     # the margin variables start at the guess's own margins (at least 0, their lower bound)
@@ -74,14 +74,14 @@ def test_default_weights_leave_the_program_as_it_was(flat):
 
 def test_a_stroke_weight_leaves_more_spring_travel(flat, default_margins):
     base, base_ok = default_margins
-    margins, ok = solved(flat, CostWeights(stroke=10.0))
+    margins, ok = solved(flat, ObjectiveWeights(stroke=10.0))
     assert base_ok and ok
     assert margins["stroke"] > base["stroke"] + 0.003  # ~39 -> ~45 mm
 
 
 def test_a_friction_weight_leaves_more_friction_to_spare(flat, default_margins):
     base, _ = default_margins
-    margins, ok = solved(flat, CostWeights(friction=10.0))
+    margins, ok = solved(flat, ObjectiveWeights(friction=10.0))
     assert ok
     assert margins["friction"] > base["friction"] + 0.01  # ~0.569 -> ~0.587
 
@@ -89,7 +89,7 @@ def test_a_friction_weight_leaves_more_friction_to_spare(flat, default_margins):
 def test_the_robust_preset_carries_margin_weights():
     """``trajopt@robust`` gives its config as JSON-ready fields; the planner turns them into a TrajoptConfig."""
     planner = make("trajopt@robust")
-    assert planner.config.weights.stroke > 0 and planner.config.weights.friction > 0
-    assert planner.config.weights.edge == CostWeights().edge
+    assert planner.config.objective.stroke > 0 and planner.config.objective.friction > 0
+    assert planner.config.objective.edge == ObjectiveWeights().edge
     with pytest.raises(TypeError):
-        make("trajopt", config={"weights": {"margin": 1.0}})
+        make("trajopt", config={"objective": {"margin": 1.0}})

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 import drakeslip as ds
+from drakeslip.terrain import check_families, family
 
 
 @dataclass(frozen=True)
@@ -20,7 +21,7 @@ class Case:
     leg_angle: float
 
     def terrain(self) -> ds.Terrain:
-        return ds.TERRAIN_FAMILIES[self.family](self.terrain_seed)
+        return family(self.family)(self.terrain_seed)
 
 
 @dataclass(frozen=True)
@@ -143,21 +144,19 @@ def draw_cases(n_cases: int, seed: int, families=("step",), params: ds.SlipParam
     body (an apex only 0.1-0.5 m above the ground would mostly TRIP with a 0.5 m leg), forward speed
     0.3-3 m/s, leg angle within +-atan(mu)."""
     params = params or ds.SlipParams()
-    unknown = set(families) - set(ds.TERRAIN_FAMILIES)
-    if unknown or not families:
-        raise ValueError(f"unknown terrain families {sorted(unknown)}; choose from {sorted(ds.TERRAIN_FAMILIES)}")
+    families = check_families(families)
     rng = np.random.default_rng(seed)
     reach = params.leg_length
     cases = []
     for i in range(n_cases):
-        family = families[i % len(families)]
+        name = families[i % len(families)]
         terrain_seed = int(rng.integers(1_000_000))
-        terrain = ds.TERRAIN_FAMILIES[family](terrain_seed)
+        terrain = family(name)(terrain_seed)
         x = rng.uniform(0.5, 12.0)
         angle = rng.uniform(-params.max_leg_angle, params.max_leg_angle)
         ground = float(np.max(terrain.height_at(np.linspace(x - reach, x + reach, 21))))
         z = ground + reach * math.cos(angle) + rng.uniform(0.1, 0.5)
-        cases.append(Case(family, terrain_seed, ds.ApexState(x, z, rng.uniform(0.3, 3.0)), angle))
+        cases.append(Case(name, terrain_seed, ds.ApexState(x, z, rng.uniform(0.3, 3.0)), angle))
     return cases
 
 

@@ -34,9 +34,7 @@ from drakeslip.simulation import IntegratorConfig, SimulationResult
 
 from planners.formats.plan import PlanRecord
 from verification.margins import Margin, margins
-
-MODES = ("angles", "footholds", "auto")
-TOLERANCE = 0.01  # [m, m/s] a foothold or predicted apex the run misses by more is not the plan as written
+from verification.plan_check_options import MODES, TOLERANCE
 _MODE_WORDS = {"angles": "leg angles open loop", "footholds": "footholds through the controller"}
 
 

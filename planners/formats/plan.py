@@ -25,7 +25,7 @@ from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.params import check_number
 from drakeslip.state import as_apex, check_apex
-from drakeslip.terrain import DITCH_HEIGHT, TERRAIN_FAMILIES
+from drakeslip.terrain import DITCH_HEIGHT, family
 
 from planners.base import Plan
 from planners.formats.suite import required_field
@@ -171,10 +171,8 @@ def _terrain(spec) -> Terrain:
     if isinstance(spec, Terrain):
         return spec
     if isinstance(spec, dict) and "family" in spec:
-        family, seed = spec["family"], required_field(spec, "seed", "terrain spec")
-        if family not in TERRAIN_FAMILIES:
-            raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
-        return TERRAIN_FAMILIES[family](int(seed))
+        generate, seed = family(spec["family"]), required_field(spec, "seed", "terrain spec")
+        return generate(int(seed))
     if isinstance(spec, dict):
         x0, cell, heights = (required_field(spec, key, "terrain") for key in ("x0", "cell", "heights"))
         return Terrain(heights, cell, x0, spec.get("ditch_height", DITCH_HEIGHT))

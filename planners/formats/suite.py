@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from drakeslip import ApexState, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.params import check_number
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import family as terrain_family
 
 SUITE_FORMAT = "drakeslip-suite/1"
 # The paper's protocol: 15 terrains per family, goal at x = 10 m, friction 0.8. Each terrain is paired with
@@ -22,8 +22,9 @@ PAPER_HEIGHTS = (0.8, 1.0)
 START_X = -1.0
 PAPER_GOAL_X = 10.0
 PAPER_FRICTION = 0.8
-# Base terrain seeds of the committed suites (terrain i uses base + i); fresh suites use other bases.
-COMMITTED_SEEDS = {"ditch": 1000, "step": 2000, "mixed": 3000}
+# Base terrain seeds of the committed suites, suites/ditch.json and suites/step.json (terrain i uses base + i);
+# fresh suites use other bases.
+COMMITTED_SEEDS = {"ditch": 1000, "step": 2000}
 
 
 @dataclass(frozen=True)
@@ -49,11 +50,10 @@ def make_suite(family: str, seed: int, n_terrains: int = PAPER_TERRAINS, speeds=
                heights=PAPER_HEIGHTS, goal_x: float = PAPER_GOAL_X, friction: float = PAPER_FRICTION,
                name: str | None = None) -> Suite:
     """``n_terrains`` terrains of ``family`` (seeds ``seed``, ``seed + 1``, ...) x every (speed, height)."""
-    if family not in TERRAIN_FAMILIES:
-        raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+    generate = terrain_family(family)
     cases = []
     for i in range(n_terrains):
-        terrain = TERRAIN_FAMILIES[family](seed + i)
+        terrain = generate(seed + i)
         for v in speeds:
             for z in heights:
                 cases.append(Case(f"{family}-{seed + i}-v{v:g}-z{z:g}", terrain,

@@ -2,7 +2,7 @@
 
 A planner runs the model one step at a time on one window (batch 1). At that size torch's per-call overhead
 and thread pool dominate (about 1 ms per step on an idle core, far more when the cores are shared), while
-the same arithmetic in numpy takes tens of microseconds. Training stays in torch (lstm_model.py); this holds
+the same arithmetic in numpy takes tens of microseconds. Training stays in torch (planners/learned/model.py); this holds
 a copy of the trained weights and computes the same function (tests/test_lstm.py checks the two agree).
 """
 from __future__ import annotations

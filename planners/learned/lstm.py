@@ -20,7 +20,7 @@ _MODELS: dict = {}
 
 
 def load_model(path=None) -> FootstepModel:
-    """The footstep model from ``path`` (default: the paper's, planners/weights/lstm.pt), loaded once."""
+    """The footstep model from ``path`` (default: the paper's, planners/weights/lstm_paper.pt), loaded once."""
     path = str(path or PAPER_WEIGHTS)
     if path not in _MODELS:
         _MODELS[path] = load_checkpoint(path)[0]
@@ -28,7 +28,7 @@ def load_model(path=None) -> FootstepModel:
 
 
 class FootstepDistribution:
-    """Runs the model on one perception window, in numpy (see lstm_inference.py). ``mask_ditches`` forbids
+    """Runs the model on one perception window, in numpy (planners/learned/inference.py). ``mask_ditches`` forbids
     ditch cells (a foot there is a certain FOOT_COLLISION, a physical constraint rather than a terrain
     heuristic)."""
 
@@ -66,10 +66,10 @@ class LSTMPlanner(Planner):
     them; the plan holds the first leg angle (from the current apex) and leaves later angles and apexes NaN,
     since the model does not predict them.
 
-    The defaults are the best shipped setting: one step ahead (the receding-horizon loop asks again at every
-    apex), the model trained on the goal-reaching expert's rollouts (``EXPERT_WEIGHTS``), and the learned
-    re-ranker's pick (``RANKER_WEIGHTS``). The paper's planner, its model's modes for up to 12 steps, is the
-    preset ``lstm@paper``.
+    ``model`` is the footstep model's checkpoint file. The defaults are the best shipped setting: one step ahead
+    (the receding-horizon loop asks again at every apex), the model trained on the goal-reaching expert's rollouts
+    (``EXPERT_WEIGHTS``), and the learned re-ranker's pick (``RANKER_WEIGHTS``). The paper's planner, its model's
+    modes for up to 12 steps, is the preset ``lstm@paper``.
 
     The mode is taken over footholds the hopper can use, on a quarter-cell grid (the bins of a 4-bin sub-cell
     model; a per-cell model's probabilities interpolated between cell centres, so a mode next to a ditch
@@ -85,7 +85,7 @@ class LSTMPlanner(Planner):
 
     name = "lstm"
 
-    def __init__(self, weights=EXPERT_WEIGHTS, max_steps: int = 1, mask_ditches: bool = True,
+    def __init__(self, model=EXPERT_WEIGHTS, max_steps: int = 1, mask_ditches: bool = True,
                  controller: StepLengthController | None = None, edge_margin: float = EDGE_MARGIN,
                  feedback: str = "distribution", ranker=RANKER_WEIGHTS, top_k: int = 5, **budget):
         super().__init__(**budget)
@@ -94,7 +94,7 @@ class LSTMPlanner(Planner):
         self.feedback = feedback
         if not (isinstance(max_steps, int) and max_steps >= 1):
             raise ValueError(f"max_steps must be a positive integer, got {max_steps!r}")
-        self.model = load_model(weights)
+        self.model = load_model(model)
         self.net = FootstepDistribution(self.model, mask_ditches)
         self.max_steps = max_steps
         self.controller = controller or StepLengthController.load_default()

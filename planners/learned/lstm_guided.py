@@ -58,7 +58,7 @@ class PathConditionedSampler:
                                 after)
         return self.cache[node]
 
-    def weights(self, tree, node: int, x_l: np.ndarray) -> np.ndarray:
+    def probabilities(self, tree, node: int, x_l: np.ndarray) -> np.ndarray:
         """The temperature-scaled probability of each candidate foothold's bin for the step after ``node``
         (0 outside the window and, with ditch masking, in ditches)."""
         probs, after = self._advance(tree, node)
@@ -73,8 +73,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     """Step-space search whose children are ``branching`` footholds sampled from the LSTM (temperature
     ``temperature`` widens the distribution for sampling); a search that finds nothing is retried with each
     ``fallback`` branching (the paper: 3, then 5). Every child still goes through the controller and the fast
-    step map, so the plan is one the controller can hit. ``weights`` is the LSTM checkpoint; ``cost_weights`` the
-    node cost's (Step-space's ``weights``).
+    step map, so the plan is one the controller can hit. ``model`` is the LSTM checkpoint; ``cost_weights`` the
+    node cost's, as Step-space's.
 
     Progressive widening: a node whose sampled children all fail draws the next ``branching`` instead of dying,
     and a node with candidates left returns to the queue, so the search comes back to it when its children's
@@ -92,18 +92,17 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
     name = "lstm-guided"
 
-    def __init__(self, weights=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
+    def __init__(self, model=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
                  temperature: float = 1.0, mask_ditches: bool = True, seed: int = 0, lazy: bool = True,
                  conditioning: str = "apex", cost_weights: CostWeights | tuple = CostWeights(),
                  max_nodes: int = MAX_NODES, floor: float = 0.0, grid_fallback: bool = False, **options):
-        # ``weights`` here is the LSTM checkpoint; a node costs a model step on top of Step-space's work
-        super().__init__(weights=cost_weights, max_nodes=max_nodes, **options)
+        super().__init__(cost_weights=cost_weights, max_nodes=max_nodes, **options)
         for b in (branching, *fallback):
             if not (isinstance(b, int) and b >= 1):
                 raise ValueError(f"branching factors must be positive integers, got {b!r}")
         if not temperature > 0:
             raise ValueError(f"temperature must be positive, got {temperature!r}")
-        self.net = FootstepDistribution(load_model(weights), mask_ditches)
+        self.net = FootstepDistribution(load_model(model), mask_ditches)
         self.attempts = (branching, *fallback)
         self.temperature = float(temperature)
         self.seed = seed
@@ -142,7 +141,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             if node not in draws:
                 apex = tree.apex[node]
                 x_l = self.candidates(apex, terrain, params, self.spacings[0], problem.window_end)
-                order = weighted_order(np.maximum(sampler.weights(tree, node, x_l), self.floor), rng)
+                order = weighted_order(np.maximum(sampler.probabilities(tree, node, x_l), self.floor), rng)
                 draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
             d = draws[node]
             apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
@@ -167,7 +166,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             children.more = bool(d["pos"] < order.size or d["ready"])
             return children
 
-        return best_first(problem, expand, self.weights, self.n_sequences, self.search_budget(robust),
+        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
 
 

@@ -22,7 +22,7 @@ class AngleSpacePlanner(Planner):
     name = "angle"
 
     def __init__(self, branching: int = 20, fallback: tuple = (30,), n_sequences: int = 1,
-                 weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
+                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
                  edge_margin: float = EDGE_MARGIN, seed: int = 0, **budget):
         super().__init__(**budget)
         for b in (branching, *fallback):
@@ -32,7 +32,7 @@ class AngleSpacePlanner(Planner):
             raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
         self.branchings = (branching, *fallback)
         self.n_sequences = n_sequences
-        self.weights = weights if isinstance(weights, CostWeights) else CostWeights(*weights)
+        self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
         warm_up()
         self.min_speed = float(min_speed)
         self.edge_margin = float(edge_margin)
@@ -61,7 +61,7 @@ class AngleSpacePlanner(Planner):
             apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]
             return Children(angles[ok], res.touchdown_x[ok], apexes, d, branching, beyond)
 
-        return best_first(problem, expand, self.weights, self.n_sequences, self.budget)
+        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.budget)
 
     def _plan(self, problem: Problem) -> Plan:
         return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.branchings])

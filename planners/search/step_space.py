@@ -44,7 +44,7 @@ class StepSpacePlanner(Planner):
 
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
                  tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
-                 weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
+                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
                  edge_margin: float = EDGE_MARGIN, step_map: str = "fast",
                  robustness: Robustness | dict | None = None, fallback_nominal: bool = True, **budget):
         super().__init__(**budget)
@@ -64,7 +64,7 @@ class StepSpacePlanner(Planner):
             raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
         self.tolerance = float(tolerance)
         self.n_sequences = n_sequences
-        self.weights = weights if isinstance(weights, CostWeights) else CostWeights(*weights)
+        self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
         self.min_speed = float(min_speed)
         self.edge_margin = float(edge_margin)
         warm_up()
@@ -129,7 +129,7 @@ class StepSpacePlanner(Planner):
             ok, apexes = self.simulate(problem, apex, x_l, theta)
             return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
 
-        return best_first(problem, expand, self.weights, self.n_sequences, self.search_budget(robust),
+        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
 
     def search_budget(self, robust: Robustness | None):

@@ -158,7 +158,7 @@ class SearchResult:
     stop: str   # "goals", "exhausted" (queue empty), "nodes" or "ode_calls" (budget), "time" (safety limit)
 
 
-def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int, budget: Budget,
+def best_first(problem: Problem, expand, cost_weights: CostWeights, n_sequences: int, budget: Budget,
                admit=None) -> SearchResult:
     """Algorithm 1: expand the cheapest node, add its successful children, pop the next cheapest; a popped
     node whose foothold passes the target is a goal. So is an expanded node with a successful hop past the
@@ -196,8 +196,9 @@ def best_first(problem: Problem, expand, weights: CostWeights, n_sequences: int,
                     stop = "goals"
                     break
             if children.angles.size:
-                cost = (weights.progress * np.abs(children.footholds - problem.target_x)
-                        + weights.speed * np.abs(children.apexes[:, 2]) + weights.isolation * children.isolation)
+                w = cost_weights
+                cost = (w.progress * np.abs(children.footholds - problem.target_x)
+                        + w.speed * np.abs(children.apexes[:, 2]) + w.isolation * children.isolation)
                 for i, c in zip(tree.add(node, children, cost), cost.tolist()):
                     heapq.heappush(queue, (c, i))
             if children.more:  # back in the queue behind its own children (the root: behind everything)

@@ -12,7 +12,7 @@ JSON-ready record; ``planners.make("trajopt", seed=...)`` is the same as a plann
 
 Modules, in the order a query uses them:
 
-* ``config``: the seeds, settings (``TrajoptConfig``), cost weights and scales, ``TrajoptError``;
+* ``config``: the seeds, settings (``TrajoptConfig``), the objective's weights and scales, ``TrajoptError``;
 * ``seeds``: footholds from a seed's planner (or the cold gait);
 * ``segments``: the terrain's flat runs of cells and the one each foothold lands on;
 * ``guess``: the initial guess from the seed's footholds;

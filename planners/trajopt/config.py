@@ -1,10 +1,10 @@
-"""The optimizer's settings: the seeds it knows, the transcription, constraint margins, cost weights and solver
-options, and the error a seed that cannot be optimized raises.
+"""The optimizer's settings: the seeds it knows, the transcription, constraint margins, the objective's weights
+and solver options, and the error a seed that cannot be optimized raises.
 
 Only numpy and the standard library are imported here, so a script's ``--help`` that shows these defaults starts
 no pydrake, torch or numba.
 
-Cost (a documented trade; weights in ``CostWeights``):
+Cost (a documented trade; the terms' weights in ``ObjectiveWeights``, ``TrajoptConfig.objective``):
 
     J =  edge     * sum_i sum_{finite edges e of segment i} (EDGE_SCALE / (f_i - e))^2     keep off edges
        + angle    * sum_i ((theta_{i+1} - theta_i) / ANGLE_SCALE)^2                       smooth leg commands
@@ -51,8 +51,9 @@ class TrajoptError(ValueError):
 
 
 @dataclass(frozen=True)
-class CostWeights:
-    """The weights of the cost's terms (see the module docstring); the margin terms are off by default."""
+class ObjectiveWeights:
+    """The weights of the objective's terms (the cost J of the module docstring); the margin terms are off by
+    default."""
 
     edge: float = 1.0
     angle: float = 1.0
@@ -82,9 +83,9 @@ class TrajoptConfig:
     min_speed: float = 0.3           # [m/s] apex speed bounds
     max_speed: float = 6.0
     min_stance_speed: float = 0.05   # [m/s] xdot at every stance knot (a STALL below 0)
-    weights: CostWeights = field(default_factory=CostWeights)
+    objective: ObjectiveWeights = field(default_factory=ObjectiveWeights)
     solver: str = "snopt"            # "snopt" or "ipopt"; snopt falls back to ipopt when unavailable
-    lstm_weights: str | None = None  # checkpoint for the lstm and lstm-guided seeds, over their presets' (a
+    seed_model: str | None = None    # checkpoint for the lstm and lstm-guided seeds, over their presets' (a
                                      # seed's own options can name another; default: each label's own)
     solver_options: tuple = ()       # extra (name, value) pairs for the solver
     retry: bool = True               # no convergence from the re-anchored guess: try the chained one too
@@ -123,10 +124,10 @@ class TrajoptConfig:
 
 def as_config(value: TrajoptConfig | dict | None) -> TrajoptConfig:
     """A planner's ``config`` option as a TrajoptConfig: itself, the defaults for None, or from a dict of its fields
-    with ``weights`` a dict of CostWeights fields (the JSON form a preset or ``--options`` gives)."""
+    with ``objective`` a dict of ObjectiveWeights fields (the JSON form a preset or ``--options`` gives)."""
     if value is None or isinstance(value, TrajoptConfig):
         return value or TrajoptConfig()
     fields = dict(value)
-    if isinstance(fields.get("weights"), dict):
-        fields["weights"] = CostWeights(**fields["weights"])
+    if isinstance(fields.get("objective"), dict):
+        fields["objective"] = ObjectiveWeights(**fields["objective"])
     return TrajoptConfig(**fields)

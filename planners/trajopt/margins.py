@@ -1,4 +1,4 @@
-"""The margin-maximizing part of the N-hop program (``CostWeights.stroke`` and ``CostWeights.friction``).
+"""The margin-maximizing part of the N-hop program (``objective.stroke`` and ``objective.friction`` of the config).
 
 With a positive weight, the program gets one more decision variable per margin, bounded by every stance knot of
 every hop, and the cost rewards it (max-min: the whole plan keeps at least that margin):
@@ -23,7 +23,7 @@ from planners.trajopt.config import FRICTION_SCALE, STROKE_SCALE
 def add_margins(program) -> dict:
     """Add the margin variables with a positive weight, their constraints (groups ``stroke_margin`` and
     ``friction_margin``) and their rewards to a ``SlipTrajopt`` under construction; returns {name: variable}."""
-    w, prog, params, K = program.config.weights, program.prog, program.params, program.K
+    w, prog, params, K = program.config.objective, program.prog, program.params, program.K
     L_min, mu = params.min_leg_length, params.friction
     margins = {}
     if w.stroke:

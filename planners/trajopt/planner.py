@@ -35,15 +35,14 @@ class TrajoptPlanner(Planner):
 
     @classmethod
     def files_read(cls, options: dict) -> dict:
-        """The weights its seed's planner reads (none for the cold gait), as ``seed.OPTION``."""
+        """The files its seed's planner reads (none for the cold gait), as ``seed.OPTION``."""
         seed = options.get("seed", "step")
         if planner_name(seed) == "cold":
             return {}
         seed_options = dict(options.get("seed_options") or {})
         config = as_config(options.get("config"))
-        if config.lstm_weights and planner_name(seed).startswith("lstm") \
-                and "weights" not in seed_options:
-            seed_options["weights"] = config.lstm_weights
+        if config.seed_model and planner_name(seed).startswith("lstm") and "model" not in seed_options:
+            seed_options["model"] = config.seed_model
         return {f"seed.{k}": v for k, v in files_read(seed, seed_options).items()}
 
     def _plan(self, problem: Problem) -> Plan:

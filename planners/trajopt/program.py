@@ -257,7 +257,7 @@ class SlipTrajopt:
         return variables, dual_constraint(clearance, n_out), n_out
 
     def _add_costs(self):
-        w, N = self.config.weights, self.N
+        w, N = self.config.objective, self.N
         if w.edge:
             for i, seg in enumerate(self.segs):
                 for edge in (seg.lo, seg.hi):

@@ -39,21 +39,21 @@ def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     return first + (last - first) * np.arange(n) / max(n - 1, 1)
 
 
-def seed_planner(label: str, options: dict | None, max_hops: int, lstm_weights, sample: int):
+def seed_planner(label: str, options: dict | None, max_hops: int, seed_model, sample: int):
     """The seed's planner (``label`` with ``options`` over its preset's), built once per distinct arguments (so the
-    one check_seed builds is the first start's): an lstm seed reads ``lstm_weights`` unless ``options`` name a
+    one check_seed builds is the first start's): an lstm seed reads ``seed_model`` unless ``options`` name a
     checkpoint; a multi-step mode planner plans ``max_hops`` steps; the LSTM-guided search samples with seed
     ``sample``."""
-    return _built_seed_planner(label, max_hops, str(lstm_weights) if lstm_weights else None, sample,
+    return _built_seed_planner(label, max_hops, str(seed_model) if seed_model else None, sample,
                                json.dumps(options or {}, sort_keys=True))
 
 
 @functools.cache
-def _built_seed_planner(label: str, max_hops: int, lstm_weights: str | None, sample: int, options_json: str):
+def _built_seed_planner(label: str, max_hops: int, seed_model: str | None, sample: int, options_json: str):
     name, given = planner_name(label), json.loads(options_json)
     options = options_for(label, given)
-    if name.startswith("lstm") and lstm_weights and "weights" not in given:
-        options["weights"] = lstm_weights
+    if name.startswith("lstm") and seed_model and "model" not in given:
+        options["model"] = seed_model
     if name == "lstm" and options.get("max_steps", 1) > 1:  # a multi-step mode planner: as many as optimized
         options["max_steps"] = max_hops
     if name == "lstm-guided":  # footholds sampled from the model, each hop checked on the fast step map
@@ -84,22 +84,22 @@ def check_seed_name(seed: str, options: dict | None) -> str:
 
 def check_seed(seed: str, options: dict | None = None, config: TrajoptConfig | None = None) -> None:
     """A ValueError unless ``seed`` is a seed name, or ``NAME@VARIANT`` of one, and ``options`` (for the seed's
-    planner) build it with ``config``'s max_hops and lstm_weights (the planner is kept for the first start);
+    planner) build it with ``config``'s max_hops and seed_model (the planner is kept for the first start);
     ``cold`` takes no options."""
     config = config or TrajoptConfig()
     if check_seed_name(seed, options) != "cold":
-        seed_planner(seed, options, config.max_hops, config.lstm_weights, 0)
+        seed_planner(seed, options, config.max_hops, config.seed_model, 0)
 
 
 def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.max_hops,
-                   lstm_weights: str | None = None, sample: int = 0,
+                   seed_model: str | None = None, sample: int = 0,
                    options: dict | None = None) -> tuple[np.ndarray, int]:
     """Footholds from the named seed (planned on the problem's terrain), up to (and including) the first one
     past the target, and the step-map calls the seed's planner made (0 for ``cold``).
     ``name``: a seed, or ``NAME@VARIANT`` of one with ``options`` for its planner (e.g. ``lstm-guided@expert``
     with another model), so two settings of a seed can be compared; a preset label (``planners.registry.PRESETS``,
     e.g. ``lstm@paper``) runs with the preset's options, updated by ``options``.
-    ``lstm_weights``: a checkpoint for the ``lstm`` and ``lstm-guided`` seeds (default: each label's own) unless
+    ``seed_model``: a checkpoint for the ``lstm`` and ``lstm-guided`` seeds (default: each label's own) unless
     ``options`` name one. ``sample``: which start of a MULTI_START seed (the cold gait with COLD_STRIDES[sample]
     more hops, the LSTM-guided search with sampling seed ``sample``). An ``lstm`` plan short of the target (the
     one-step mode planner: plain ``lstm``, whose learned re-ranker picks each foothold) is continued from the
@@ -111,7 +111,7 @@ def seed_footholds(name: str, problem: Problem, max_hops: int = TrajoptConfig.ma
     if kind == "cold":
         footholds = cold_footholds(problem, COLD_STRIDES[sample])
     else:
-        planner = seed_planner(name, options, max_hops, lstm_weights, sample)
+        planner = seed_planner(name, options, max_hops, seed_model, sample)
         plan = planner.plan(problem.apex, problem.terrain, problem.goal_x, problem.params)
         if not plan.success or plan.footholds.size == 0:
             raise TrajoptError(f"the {name} seed found no plan: {plan.message}")

@@ -98,7 +98,7 @@ def optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, t
     t0 = time.perf_counter()
     try:
         if isinstance(seed, str):
-            footholds, seed_calls = seed_footholds(seed, problem, config.max_hops, config.lstm_weights, sample,
+            footholds, seed_calls = seed_footholds(seed, problem, config.max_hops, config.seed_model, sample,
                                                    seed_options)
         else:
             footholds, seed_calls = np.asarray(seed, dtype=np.float64).reshape(-1), 0

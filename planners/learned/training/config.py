@@ -7,7 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import check_families
 
 
 @dataclass(frozen=True)
@@ -15,14 +15,14 @@ class DatasetConfig:
     """The paper's Table I by default."""
 
     planner: str = "angle"              # "angle": the paper's; "step": Step-space trees; "expert": rollouts of
-                                        # the goal-reaching expert (planners/expert.py; see README, LSTM)
+                                        # the goal-reaching expert (training/expert.py; see README, LSTM)
     n_terrains: int = 360               # half ditch world, half step world
     apexes_per_terrain: int = 8
     min_steps: int = 8
     goal_sequences: int = 8             # d: goals each search collects
     branching: int = 15
     friction: float = 0.6               # lower than the test suites' 0.8, for robustness
-    weights: tuple = (1.0, 1.0, 2.0)
+    cost_weights: tuple = (1.0, 1.0, 2.0)   # the search's node cost (planners.search.tree.CostWeights)
     goal_x: float = 10.0
     min_progress: float = 0.6           # fraction of the distance from the apex to the search target
     max_paths_per_instance: int = 20    # seeded subsample of an instance's paths (~50k sequences in all)
@@ -61,9 +61,7 @@ class DatasetConfig:
             lo, hi = getattr(self, name)
             if not 0 < lo <= hi:
                 raise ValueError(f"DatasetConfig.{name} must be 0 < low <= high, got {getattr(self, name)!r}")
-        unknown = [f for f in self.families if f not in TERRAIN_FAMILIES]
-        if unknown:
-            raise ValueError(f"unknown terrain family {unknown[0]!r}; known: {sorted(TERRAIN_FAMILIES)}")
+        check_families(self.families)
         for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
                      "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells", "expert_max_nodes"):
             if getattr(self, name) < 1:
@@ -97,7 +95,7 @@ class TrainConfig:
     """The footstep model's training loop (train_lstm.py)."""
 
     data: str = "data/footsteps"        # folder(s) of dataset shards (*.npz) written by generate_dataset, comma-separated
-    out: str = "planners/weights/lstm.pt"
+    out: str = "planners/weights/lstm_paper.pt"
     checkpoint: str = "out/lstm_checkpoint.pt"
     epochs: int = 30
     batch_size: int = 256

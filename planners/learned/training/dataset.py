@@ -28,9 +28,10 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
+from drakeslip import ApexState, SlipParams
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.jobs.runner import FileStore, run
+from drakeslip.terrain import family as terrain_family
 
 from planners.learned.inputs import encode_window, pad_steps
 from planners.learned.training.config import DatasetConfig
@@ -44,7 +45,7 @@ def instance(cfg: DatasetConfig, i: int):
     """Terrain and initial apex of instance i: terrain i // apexes_per_terrain, families alternating."""
     t = i // cfg.apexes_per_terrain
     family = cfg.families[t % len(cfg.families)]
-    terrain = TERRAIN_FAMILIES[family](seed=cfg.seed * 1_000_003 + t)
+    terrain = terrain_family(family)(seed=cfg.seed * 1_000_003 + t)
     rng = np.random.default_rng([cfg.seed, i])
     for _ in range(100):  # start over solid ground: near the start or anywhere along the course
         x = rng.uniform(cfg.start_x, 0.5) if rng.random() < 0.25 else rng.uniform(cfg.start_x, cfg.goal_x - 2.0)
@@ -63,12 +64,12 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
     budget = {"max_nodes": cfg.max_nodes, "max_time_s": cfg.max_time_s}
     if cfg.planner == "angle":
         planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
-                                    weights=cfg.weights, seed=cfg.seed * 7919 + i, **budget)
+                                    cost_weights=cfg.cost_weights, seed=cfg.seed * 7919 + i, **budget)
     elif cfg.subcells > 1:
         planner = StepSpacePlanner(spacing=terrain.cell / cfg.subcells, fallback_spacing=(),
-                                   n_sequences=cfg.goal_sequences, weights=cfg.weights, **budget)
+                                   n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
     else:
-        planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, weights=cfg.weights, **budget)
+        planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
     return planner.search(apex, terrain, cfg.goal_x, params), planner.horizon
 
 
@@ -146,7 +147,7 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     if cfg.policy:
         from planners.learned.lstm import LSTMPlanner
 
-        policy = LSTMPlanner(weights=cfg.policy, max_steps=1, ranker=None, controller=expert.controller)
+        policy = LSTMPlanner(model=cfg.policy, max_steps=1, ranker=None, controller=expert.controller)
     states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore,
                             policy=policy)
     ode_calls = sum(label.ode_calls for _, label, _ in states)
@@ -257,7 +258,7 @@ def write_manifest(cfg: DatasetConfig, folder: str) -> None:
     """Record the config; a folder made with another config is refused rather than silently mixed."""
     path = os.path.join(folder, "config.json")
     mine = asdict(cfg)
-    for name in ("families", "weights", "height_range", "speed_range"):
+    for name in ("families", "cost_weights", "height_range", "speed_range"):
         mine[name] = list(mine[name])  # as JSON reads them back
     if os.path.exists(path):
         defaults = {k: list(v) if isinstance(v, tuple) else v for k, v in asdict(DatasetConfig()).items()}

@@ -63,12 +63,13 @@ class CollectingPlanner(LSTMPlanner):
         return np.where(np.arange(score.size) == top[pick], score, 0.0)
 
 
-def collect(family: str, seed: int, n_terrains: int, weights, ranker, record_k: int, top_k: int, explore: float):
+def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: int, top_k: int, explore: float):
     """One shard: (features (states, record_k, N_FEATURES), rooms (states, record_k), NaN where a state had fewer
-    candidates) from every case of ``n_terrains`` terrains of ``family`` from terrain seed ``seed``."""
+    candidates) from every case of ``n_terrains`` terrains of ``family`` from terrain seed ``seed``, the planner
+    running the footstep model ``model`` (a checkpoint file) with the learner ``ranker``."""
     suite = make_suite(family, seed, n_terrains)
     params = SlipParams(friction=suite.friction)
-    planner = CollectingPlanner(record_k, explore, seed, weights=weights, ranker=ranker, top_k=top_k)
+    planner = CollectingPlanner(record_k, explore, seed, model=model, ranker=ranker, top_k=top_k)
     for case in suite.cases:
         run_case(planner, planner.controller, case, suite.goal_x, params, ClosedLoopConfig(backend="fast"))
     if not planner.features:
@@ -76,12 +77,12 @@ def collect(family: str, seed: int, n_terrains: int, weights, ranker, record_k: 
     return np.stack(planner.features), np.stack(planner.rooms)
 
 
-def collect_shard(family: str, seed: int, n_terrains: int, weights: bytes, ranker: bytes | None, record_k: int,
+def collect_shard(family: str, seed: int, n_terrains: int, model: bytes, ranker: bytes | None, record_k: int,
                   top_k: int, explore: float):
-    """``collect`` as a task of the job runner: the footstep model's ``weights`` and the learner's ``ranker``
+    """``collect`` as a task of the job runner: the footstep ``model`` and the learner's ``ranker``
     (None: follow the mode) come as the contents of their files, so a worker needs no filesystem shared with the
     driver; returns the shard's (features, rooms) for the driver to write (``save_shard``)."""
-    return collect(family, seed, n_terrains, local_copy(weights, ".pt"),
+    return collect(family, seed, n_terrains, local_copy(model, ".pt"),
                    None if ranker is None else local_copy(ranker, ".pt"), record_k, top_k, explore)
 
 
