@@ -92,8 +92,8 @@ class NoiseProfile:
         solid = heights > terrain.ditch_height
         heights[solid] += rng.normal(size=int(solid.sum())) * self.heights
         shift = float(rng.normal()) * self.edges
-        return Terrain(heights, terrain.cell, terrain.x0 + shift, terrain.ditch_height).denoised(self.heights,
-                                                                                                 map_filter)
+        return Terrain(heights, terrain.cell, terrain.x0 + shift, terrain.ditch_height,
+                       terrain.extends_flat).denoised(self.heights, map_filter)
 
 
 PROFILES = {

@@ -7,26 +7,40 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from drakeslip.bounds import FRICTION, GRAVITY, LEG_LENGTH, MASS, STIFFNESS, Bound
+
 # Default spring stroke: the leg bottoms out after compressing by 40 % of its rest length, the stroke of a
 # typical telescoping hopper leg. For the paper's 7 kg / 0.5 m / 3200 N/m hopper that is 64 J of spring
 # energy, so bottoming out is reached only by large drops (e.g. a high apex over a step down).
 MIN_LEG_FRACTION = 0.6
 
 
-def check_number(value, name: str, positive: bool = False) -> float:
-    """``value`` as a float if it is a real number (Python or numpy, not a boolean), finite, and positive if asked;
-    else ValueError naming ``name`` and the value."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real) or not math.isfinite(value) \
-            or (positive and value <= 0):
-        kind = "a positive finite number" if positive else "a finite number"
-        raise ValueError(f"{name} must be {kind}, got {value!r}")
-    return float(value)
+def check_number(value, name: str, positive: bool = False, bound: Bound | None = None) -> float:
+    """``value`` as a float if it is a real number (Python or numpy, not a boolean), finite, positive if asked and
+    inside ``bound`` if given (``drakeslip.bounds``); else ValueError naming ``name``, the bound and the value."""
+    number = math.nan
+    if not isinstance(value, (bool, np.bool_)) and isinstance(value, numbers.Real):
+        try:
+            number = float(value)
+        except OverflowError:   # an integer too large for a float
+            number = math.inf
+    if not math.isfinite(number) or (positive and number <= 0) \
+            or (bound is not None and not bound.low <= number <= bound.high):
+        kind = "a positive finite number" if positive or (bound is not None and bound.low > 0) else "a finite number"
+        raise ValueError(f"{name} must be {kind}{f' in {bound}' if bound is not None else ''}, got {shown(value)}")
+    return number
+
+
+def shown(value) -> str:
+    """``repr(value)``, cut short when long (a 400-digit integer), for an error message of one line."""
+    text = repr(value.item() if isinstance(value, np.generic) else value)
+    return text if len(text) <= 40 else f"{text[:16]}... ({len(text)} characters)"
 
 
 def check_count(value, name: str, low: int = 1) -> int:
     """``value`` as an int if it is an integer (Python or numpy, not a boolean) of at least ``low``; else ValueError."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < low:
-        raise ValueError(f"{name} must be an integer of at least {low}, got {value!r}")
+        raise ValueError(f"{name} must be an integer of at least {low}, got {shown(value)}")
     return int(value)
 
 
@@ -36,8 +50,9 @@ class SlipParams:
 
     mass [kg], leg_length (spring rest length L0) [m], stiffness [N/m], gravity [m/s^2],
     friction (Coulomb coefficient at the foot), min_leg_length [m] (the spring bottoms out below this;
-    default ``0.6 * leg_length``). The paper's hopper is the default; any other positive values work,
-    e.g. Geyer's human-runner SLIP ``SlipParams(mass=80, leg_length=1, stiffness=10.7*80*9.81)``.
+    default ``0.6 * leg_length``). The paper's hopper is the default; any other values inside the bounds of
+    ``drakeslip.bounds`` work, e.g. Geyer's human-runner SLIP ``SlipParams(mass=80, leg_length=1,
+    stiffness=10.7*80*9.81)``; ``min_leg_length`` lies in (0, leg_length).
     """
 
     mass: float = 7.0
@@ -48,14 +63,15 @@ class SlipParams:
     min_leg_length: float | None = field(default=None)
 
     def __post_init__(self):
-        for name in ("mass", "leg_length", "stiffness", "gravity", "friction"):
-            object.__setattr__(self, name, check_number(getattr(self, name), f"SlipParams.{name}", positive=True))
+        for name, bound in (("mass", MASS), ("leg_length", LEG_LENGTH), ("stiffness", STIFFNESS),
+                            ("gravity", GRAVITY), ("friction", FRICTION)):
+            object.__setattr__(self, name, check_number(getattr(self, name), f"SlipParams.{name}", bound=bound))
         if self.min_leg_length is None:
             object.__setattr__(self, "min_leg_length", MIN_LEG_FRACTION * self.leg_length)
         lmin = check_number(self.min_leg_length, "SlipParams.min_leg_length", positive=True)
         if not lmin < self.leg_length:
-            raise ValueError(
-                f"SlipParams.min_leg_length must lie in (0, leg_length={self.leg_length}), got {self.min_leg_length!r}")
+            raise ValueError(f"SlipParams.min_leg_length must lie in (0, leg_length={self.leg_length}), "
+                             f"got {shown(self.min_leg_length)}")
         object.__setattr__(self, "min_leg_length", lmin)
 
     @property

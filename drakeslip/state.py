@@ -18,8 +18,12 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
+from drakeslip.bounds import POSITION, SPEED
 from drakeslip.params import SlipParams, check_number
 from drakeslip.terrain import Terrain
+
+
+APEX_BOUNDS = (POSITION, POSITION, SPEED)   # of x, z, xdot
 
 
 class ApexState(NamedTuple):
@@ -28,8 +32,10 @@ class ApexState(NamedTuple):
     xdot: float
 
     def validate(self, name: str = "apex") -> "ApexState":
-        """This apex with every component a finite float; ValueError naming a bad one (NaN, a boolean, text)."""
-        return ApexState(*(check_number(value, f"{name}.{field_name}") for field_name, value in zip(self._fields, self)))
+        """This apex with every component a finite float inside its bound (``drakeslip.bounds``: POSITION for x
+        and z, SPEED for xdot); ValueError naming a bad one (NaN, a boolean, text, 1e308)."""
+        return ApexState(*(check_number(value, f"{name}.{field_name}", bound=bound)
+                           for field_name, value, bound in zip(self._fields, self, APEX_BOUNDS)))
 
 
 class FailureMode(enum.IntEnum):

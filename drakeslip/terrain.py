@@ -6,6 +6,7 @@ import numbers
 
 import numpy as np
 
+from drakeslip.bounds import CELL, MAX_WINDOW_CELLS, POSITION, TERRAIN_START
 from drakeslip.params import check_number
 
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
@@ -19,20 +20,30 @@ LEVEL_TOLERANCE = 0.02
 class Terrain:
     """Height profile made of cells: cell i covers ``[x0 + i*cell, x0 + (i+1)*cell)`` at ``heights[i]``.
 
-    Beyond both ends the first/last height extends flat forever. Cells at or below ``ditch_height`` are
-    ditches: a foot that reaches a ditch floor is a ``FOOT_COLLISION`` (the hopper cannot stand in a hole).
+    Beyond both ends the first/last height extends flat forever, so a map's end is not where a plan must stop.
+    A perception window (``perceived``) is the exception: ``extends_flat=False`` says nothing is known past its
+    last cell, and ``known_end`` (the x where knowledge ends; infinite for a map) is where a planner's footholds
+    must stop (``planners.base.Problem.window_end``). Heights still read flat past a window's end, as a robot
+    assumes. Cells at or below ``ditch_height`` are ditches: a foot that reaches a ditch floor is a
+    ``FOOT_COLLISION`` (the hopper cannot stand in a hole). Cell size, start and heights are checked against
+    ``drakeslip.bounds`` (CELL, TERRAIN_START, POSITION).
     """
 
-    def __init__(self, heights, cell: float = 0.1, x0: float = -3.0, ditch_height: float = DITCH_HEIGHT):
-        h = np.asarray(heights, dtype=np.float64)
+    def __init__(self, heights, cell: float = 0.1, x0: float = -3.0, ditch_height: float = DITCH_HEIGHT,
+                 extends_flat: bool = True):
+        try:
+            h = np.asarray(heights, dtype=np.float64)
+        except (OverflowError, TypeError, ValueError):   # an integer too large for a float, text, a ragged list
+            h = np.asarray([check_number(v, f"Terrain heights[{j}]", bound=POSITION) for j, v in enumerate(heights)])
         if h.ndim != 1 or h.size == 0:
             raise ValueError(f"Terrain heights must be a non-empty 1-D array, got shape {h.shape}")
-        bad = np.flatnonzero(~np.isfinite(h))
+        bad = np.flatnonzero(~(np.abs(h) <= POSITION.high))   # NaN compares False
         if bad.size:
-            raise ValueError(f"Terrain heights must be finite: heights[{bad[0]}] = {h[bad[0]]}")
-        self.cell = check_number(cell, "Terrain cell size", positive=True)
-        self.x0 = check_number(x0, "Terrain x0")
-        self.ditch_height = check_number(ditch_height, "Terrain ditch_height")
+            check_number(h[bad[0]], f"Terrain heights[{bad[0]}]", bound=POSITION)
+        self.cell = check_number(cell, "Terrain cell size", bound=CELL)
+        self.x0 = check_number(x0, "Terrain x0", bound=TERRAIN_START)
+        self.ditch_height = check_number(ditch_height, "Terrain ditch_height", bound=POSITION)
+        self.extends_flat = bool(extends_flat)
         self.heights = h
         self.heights.setflags(write=False)
 
@@ -42,7 +53,13 @@ class Terrain:
 
     @property
     def x_end(self) -> float:
+        """The far edge of the last cell."""
         return self.x0 + self.cell * self.heights.size
+
+    @property
+    def known_end(self) -> float:
+        """Where knowledge of the ground ends: ``x_end`` for a perception window, infinite for a map."""
+        return math.inf if self.extends_flat else self.x_end
 
     def index(self, x):
         """Cell index of x (clamped to the ends, where the terrain extends flat)."""
@@ -78,7 +95,7 @@ class Terrain:
         ordered = np.sort(around, axis=1)                                    # NaNs sort last
         median = ordered[np.arange(h.size), np.maximum(count - 1, 0) // 2]
         use = solid & (count >= 3) & (np.abs(median - h) <= 3.0 * sigma)
-        return Terrain(np.where(use, median, h), self.cell, self.x0, self.ditch_height)
+        return Terrain(np.where(use, median, h), self.cell, self.x0, self.ditch_height, self.extends_flat)
 
     def is_ditch_at(self, x) -> bool:
         return bool(self.height_at(x) <= self.ditch_height)
@@ -95,20 +112,26 @@ class Terrain:
         return self.x0 + i * self.cell, float(self.heights[i])
 
     def window(self, x_body: float, ahead: float = WINDOW_AHEAD, behind: float = WINDOW_BEHIND):
-        """The perception window around the body: ``(heights, x_start)`` with ``(ahead+behind)/cell`` cells
-        aligned to the terrain grid, cell j covering ``[x_start + j*cell, x_start + (j+1)*cell)``."""
-        n = int(round((ahead + behind) / self.cell))
+        """The perception window around the body: ``(heights, x_start)`` with ``(ahead+behind)/cell`` cells (at
+        least one, at most MAX_WINDOW_CELLS) aligned to the terrain grid, cell j covering
+        ``[x_start + j*cell, x_start + (j+1)*cell)``."""
+        n = max(1, int(round((ahead + behind) / self.cell)))
+        if n > MAX_WINDOW_CELLS:
+            raise ValueError(f"a window of {ahead + behind:g} m in {self.cell:g} m cells has {n} cells, more than "
+                             f"the {MAX_WINDOW_CELLS} a window may hold")
         # Anchored on the body's cell so the body always sits in cell round(behind / cell) of the window.
         first = int(math.floor((x_body - self.x0) / self.cell)) - int(round(behind / self.cell))
         idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
         return self.heights[idx].copy(), self.x0 + first * self.cell
 
     def perceived(self, x_body: float) -> "Terrain":
-        """What the robot sees with its body at ``x_body``: the perception window as a Terrain of its own."""
+        """What the robot sees with its body at ``x_body``: the perception window as a Terrain of its own, known
+        only up to its last cell (``extends_flat=False``)."""
         heights, x_start = self.window(x_body)
-        return Terrain(heights, self.cell, x_start, self.ditch_height)
+        return Terrain(heights, self.cell, x_start, self.ditch_height, extends_flat=False)
 
     def to_dict(self) -> dict:
+        """The cells (a map: files hold the whole terrain, never a perception window)."""
         return {"x0": self.x0, "cell": self.cell, "heights": [float(v) for v in self.heights]}
 
     @classmethod
@@ -119,7 +142,8 @@ class Terrain:
         return cls(d["heights"], cell=d["cell"], x0=d["x0"])
 
     def __repr__(self):
-        return f"Terrain(n={self.heights.size}, cell={self.cell}, x0={self.x0})"
+        window = "" if self.extends_flat else ", extends_flat=False"
+        return f"Terrain(n={self.heights.size}, cell={self.cell}, x0={self.x0}{window})"
 
 
 def check_window(window, name: str) -> int:

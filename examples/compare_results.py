@@ -12,10 +12,10 @@ Exit 0 when everything compared is identical, 1 when something differs (the firs
 """
 from __future__ import annotations
 
-import json
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip.jobs.files import read_json
 
 FIELDS = ("outcome", "found-work", "work")
 
@@ -90,10 +90,11 @@ def main(argv=None) -> int:
     files = []
     for path in (args.first, args.second):
         try:
-            with open(path) as f:
-                data = json.load(f)
-        except (OSError, ValueError) as error:
+            data = read_json(path, "results file")
+        except OSError as error:
             ap.error(f"cannot read results file {path}: {error}")
+        except ValueError as error:
+            ap.error(str(error))
         if not isinstance(data, dict) or not isinstance(data.get("planners"), dict):
             ap.error(f"{path} is not a results file of examples/evaluate.py (no 'planners')")
         files.append(data)

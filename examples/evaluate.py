@@ -4,8 +4,10 @@ r"""Receding-horizon evaluation of planners on a suite (the paper's Tables II/II
 
 Each planning call sees the 8 m / 3 m perception window; the first 3 footholds of each plan are executed by the
 controller on the Drake simulator (--backend fast: on the fast step map), then it replans. Finished cases are
-kept in OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume starts over). Two settings of
-one planner run side by side as NAME@VARIANT, with their options keyed by that label:
+kept in OUT.cases.jsonl, keyed by the code version (git commit and a digest of uncommitted changes), the options
+and the weights' digests, so the same command continues a killed or interrupted run where it stopped, and after
+a code change runs the cases again (it says how many cached results it reused and ignored; --no-resume starts
+over). Two settings of one planner run side by side as NAME@VARIANT, with their options keyed by that label:
 
     python3 examples/evaluate.py --suite suites/ditch.json --planners lstm-guided,lstm-guided@paper \
         --backend fast --jobs 2 --out out/guided.json
@@ -17,7 +19,9 @@ a spread-out sample of the cases:
         --options '{"step": {"step_map": "drake"}, "lstm-guided": {"step_map": "drake"}}' --baseline step \
         --out out/drake.json
 
-Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error.
+Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite
+value outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs. Ctrl-C
+ends it with one line saying how many results were saved, and by SIGINT (a shell shows status 130).
 """
 from __future__ import annotations
 
@@ -87,7 +91,7 @@ def main(argv=None) -> int:
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json
     from planners.formats.suite import load_suite
-    from verification.benchmark import evaluate, worker_setup
+    from verification.evaluation import evaluate, worker_setup
     from verification.report import ratios, table
 
     specs = {label: options.get(label) for label in labels}

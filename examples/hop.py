@@ -18,6 +18,7 @@ import sys
 import numpy as np
 
 import drakeslip as ds
+from drakeslip.bounds import POSITION, SPEED
 from drakeslip.jobs import cli
 
 N_ANGLES = 41  # lookahead grid over +-atan(mu)
@@ -99,9 +100,9 @@ def main(argv=None) -> int:
     ap.add_argument("--anim", type=cli.output_file(".gif"), default=None, help="also write an animation (GIF)")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay (self-contained HTML)")
-    ap.add_argument("--x0", type=cli.finite, default=0.0, help="start apex x [m]")
-    ap.add_argument("--z", type=cli.finite, default=0.75, help="start apex height, absolute [m]")
-    ap.add_argument("--xdot", type=cli.positive, default=1.5,
+    ap.add_argument("--x0", type=cli.physical(POSITION), default=0.0, help="start apex x [m]")
+    ap.add_argument("--z", type=cli.physical(POSITION), default=0.75, help="start apex height, absolute [m]")
+    ap.add_argument("--xdot", type=cli.physical(SPEED, positive=True), default=1.5,
                     help="start apex speed [m/s], also the lookahead's nominal speed")
     args = ap.parse_args(argv)
 

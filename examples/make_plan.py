@@ -15,10 +15,10 @@ Exit status: 0 a plan was written, 1 the planner found no plan, 2 a usage or inp
 """
 from __future__ import annotations
 
-import json
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
 
 
@@ -34,9 +34,9 @@ def main(argv=None) -> int:
                     help="also draw the search tree over the terrain (PNG)")
     args = ap.parse_args(argv)
     try:
-        options = json.loads(args.options)
-    except json.JSONDecodeError as error:
-        ap.error(f"--options is not valid JSON ({error}): {args.options!r}")
+        options = parse_json(args.options, "--options")
+    except ValueError as error:
+        ap.error(str(error))
     if not isinstance(options, dict):
         ap.error(f"--options must be a JSON object of planner options, got {args.options!r}")
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import sys
 
+from drakeslip.bounds import POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
@@ -28,9 +29,9 @@ def main(argv=None) -> int:
                          "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
                                                                            COMMITTED_SEEDS.items()))
     ap.add_argument("--terrains", type=cli.positive_int, default=PAPER_TERRAINS, help="terrains per suite")
-    ap.add_argument("--speeds", type=cli.numbers(None, cli.positive), default=PAPER_SPEEDS,
+    ap.add_argument("--speeds", type=cli.numbers(None, cli.physical(SPEED, positive=True)), default=PAPER_SPEEDS,
                     help="apex speeds of the starts, m/s, comma-separated (default: %(default)s)")
-    ap.add_argument("--heights", type=cli.numbers(None, cli.positive), default=PAPER_HEIGHTS,
+    ap.add_argument("--heights", type=cli.numbers(None, cli.physical(POSITION, positive=True)), default=PAPER_HEIGHTS,
                     help="apex heights of the starts, m, comma-separated (default: %(default)s)")
     ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)

@@ -23,11 +23,10 @@ Exit status: 0 done, 1 a planner crossed a case the oracle calls not traversable
 """
 from __future__ import annotations
 
-import json
 import sys
-from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip.jobs.files import read_json
 from verification.model_check import DEFAULT_BUDGET
 
 
@@ -74,7 +73,7 @@ def main(argv=None) -> int:
     try:
         suite = load_suite(args.suite)
         cases = select_cases(suite, args.cases, args.seed, args.ids)
-        against = [json.loads(Path(f).read_text()) for f in args.against] if args.against else []
+        against = [read_json(f, "--against file") for f in args.against] if args.against else []
         if not all(isinstance(e, dict) and isinstance(e.get("planners"), dict) for e in against):
             raise ValueError(f"--against {args.against}: not a results file of examples/evaluate.py (no 'planners')")
     except (ValueError, OSError) as exc:

@@ -3,7 +3,7 @@ side, with our numbers next to the paper's and their ratio.
 
     python3 examples/paper_tables.py --jobs 2 --out out/tables --markdown docs/paper_tables.md
 
-Runs the receding-horizon evaluation (verification/benchmark.py: plan on the window with the fast step map,
+Runs the receding-horizon evaluation (verification/evaluation.py: plan on the window with the fast step map,
 execute 3 footholds on the Drake simulator, replan) on the committed suites, ditch (Table II) and step
 (Table III), plus any --extra suites (e.g. a mixed one), writes each suite's results JSON into the --out folder
 (resumable: a killed run continues from its per-case cache) and prints the tables as markdown.
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import write_json
     from planners.closed_loop import ClosedLoopConfig
     from planners.formats.suite import load_suite
-    from verification.benchmark import evaluate, worker_setup
+    from verification.evaluation import evaluate, worker_setup
 
     specs = {}
     try:  # an unknown planner, a bad option or a malformed suite is refused before any suite runs

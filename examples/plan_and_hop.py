@@ -18,6 +18,7 @@ from __future__ import annotations
 import sys
 from dataclasses import asdict
 
+from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.jobs import cli
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.closed_loop import EXECUTED_PER_PLAN
@@ -38,10 +39,13 @@ def main(argv=None) -> int:
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
                          f"period, else {EXECUTED_PER_PLAN}, the paper's)")
-    ap.add_argument("--speed", type=cli.positive, default=2.0, help="initial apex forward speed [m/s]")
-    ap.add_argument("--height", type=cli.positive, default=0.9, help="initial apex height above the ground [m]")
+    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=2.0,
+                    help="initial apex forward speed [m/s]")
+    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=0.9,
+                    help="initial apex height above the ground [m]")
     ap.add_argument("--goal", type=cli.number(0.5, 19.0), default=10.0, help="goal x [m] (the terrain ends at 20 m)")
-    ap.add_argument("--friction", type=cli.positive, default=0.8, help="Coulomb friction coefficient at the foot")
+    ap.add_argument("--friction", type=cli.physical(FRICTION), default=0.8,
+                    help="Coulomb friction coefficient at the foot")
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the run (self-contained HTML)")

@@ -15,18 +15,15 @@ Exit status: 0 the figures were written, 2 a usage or input error (a file that i
 """
 from __future__ import annotations
 
-import json
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip.jobs.files import read_json
 
 
 def load_results(path) -> dict:
-    """A results JSON of verification.benchmark.evaluate; a ValueError naming the file otherwise."""
-    try:
-        results = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path} is not valid JSON ({error})") from None
+    """A results JSON of verification.evaluation.evaluate; a ValueError naming the file otherwise."""
+    results = read_json(path, "results file")
     planners = results.get("planners") if isinstance(results, dict) else None
     if not isinstance(planners, dict) or not planners or "suite" not in results or not all(
             isinstance(b, dict) and {"config", "cases", "success_interval"} <= set(b) for b in planners.values()):

@@ -19,10 +19,11 @@ window; they fix the segment of every hop; SNOPT optimizes the N hops (planners/
 angles are simulated open loop on the Drake hybrid simulator on the true terrain. ``verified`` = the solver
 converged and Drake completes all N hops with no failure, past the target; a solve that fails is a result, not
 an error. Finished (seed, case) solves are stored in OUT.cases.jsonl, keyed by everything a record depends on
-(the source and committed weights of drakeslip and planners, the settings, the seed and its options, the SHA-256
-of every weights file the seed reads, the case), so a killed run continues where it stopped (--no-resume starts
-over). --jobs N solves N (seed, case) pairs at a time in separate processes (or on a Ray cluster with --executor
-ray), with the same records as one process (solve times are wall-clock: keep N at most the number of cores).
+(the code version: the git commit and a digest of uncommitted changes, or a digest of the packages outside a git
+checkout; the settings, the seed and its options, the SHA-256 of every weights file the seed reads, the case), so
+a killed run continues where it stopped and a run of changed code solves again (--no-resume starts over).
+--jobs N solves N (seed, case) pairs at a time in separate processes (or on a Ray cluster with --executor ray),
+with the same records as one process (solve times are wall-clock: keep N at most the number of cores).
 """
 from __future__ import annotations
 
@@ -44,6 +45,7 @@ from planners.registry import label_options, planner_name
 from planners.trajopt.config import COLLOCATIONS, SEEDS, TrajoptConfig
 
 FORMAT = "drakeslip-trajopt-warmstart/1"
+RECORD_FIELDS = ("converged", "verified")   # of a stored solve; one lacking either is solved again
 
 
 def seed_labels(text: str) -> list[str]:
@@ -93,21 +95,6 @@ def parser() -> cli.ArgumentParser:
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the stored solves")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     return ap
-
-
-def source_digest() -> str:
-    """A digest of the packages' source and committed weights: a changed optimizer, seed planner, model or
-    controller must not reuse stored solves."""
-    import drakeslip
-    import planners
-
-    h = hashlib.sha256()
-    for package in (Path(drakeslip.__file__).parent, Path(planners.__file__).parent):
-        for f in sorted(package.rglob("*")):
-            if f.suffix in (".py", ".pt") and "__pycache__" not in f.parts:
-                h.update(f.relative_to(package.parent).as_posix().encode())
-                h.update(f.read_bytes())
-    return h.hexdigest()[:12]
 
 
 def seed_files(seed: str, options: dict | None, config: TrajoptConfig) -> dict:
@@ -197,11 +184,12 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import JsonLinesStore, remove, run, write_json
     from planners.trajopt.planner import make_problem
     from planners.trajopt.solve import optimize
-    from verification.provenance import provenance
+    from verification.provenance import code_version, provenance
 
     cases = list(suite.cases[::args.every])[:args.cases]
     params = SlipParams(friction=suite.friction)
-    setup = [FORMAT, asdict(config), source_digest(), suite.goal_x, suite.friction]
+    code = code_version()   # the version the keys hold is the one the results file names
+    setup = [FORMAT, asdict(config), code, suite.goal_x, suite.friction]
 
     def key(seed, case) -> str:
         return hashlib.sha256(json.dumps([setup, seed, options.get(seed, {}), files[seed], case.id,
@@ -217,17 +205,16 @@ def main(argv=None) -> int:
     tasks = [(k, (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
              for k, (s, i) in pairs.items()]
     records = {}
-    bar = tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=suite.name)
-    for k, result in run(optimize, tasks, JsonLinesStore(store_path), executor):
-        s, i = pairs[k]
-        records[(s, i)] = {"id": cases[i].id, **result}
-        bar.update(1)
-        bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
-    bar.close()
+    with tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=suite.name) as bar:
+        for k, result in run(optimize, tasks, JsonLinesStore(store_path, RECORD_FIELDS, code), executor):
+            s, i = pairs[k]
+            records[(s, i)] = {"id": cases[i].id, **result}
+            bar.update(1)
+            bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
     done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
                "every": args.every, "config": asdict(config), "options": options, "weights": files,
-               "provenance": provenance(), "seeds": {s: summarize(done[s]) for s in seeds}}
+               "provenance": provenance(code), "seeds": {s: summarize(done[s]) for s in seeds}}
     write_json(args.out, results)
     print(table(results))
     print(f"wrote {args.out}")

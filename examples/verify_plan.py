@@ -11,8 +11,9 @@ the hop, planned against actual, the state and hybrid state there, and the trace
 --plot draws the Drake run over the terrain with the planned and actual footholds and the counterexample marked
 (PNG); --html writes a Meshcat replay of it (self-contained HTML).
 
-Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree: see
-planners/formats/plan.py).
+Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree, or one
+lies outside the physical bounds of drakeslip/bounds.py, such as a stiffness of 1e308: see
+planners/formats/plan.py), refused in one line before the simulation starts.
 """
 from __future__ import annotations
 

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.bounds import HORIZON, POSITION
 from drakeslip.params import check_count, check_number
 from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
@@ -107,7 +108,7 @@ class Problem:
     terrain: Terrain
     goal_x: float
     params: SlipParams
-    window_end: float   # footholds must lie before this x (the perception window's far edge)
+    window_end: float   # footholds must lie before this x: the horizon, or where the terrain's knowledge ends
     target_x: float     # a sequence is complete when a foothold passes this x
     deadline: float     # time.perf_counter() value at which the planner must stop
 
@@ -120,7 +121,7 @@ class Planner(ABC):
     def __init__(self, max_nodes: int = Budget.max_nodes, max_ode_calls: int | None = Budget.max_ode_calls,
                  max_time_s: float = Budget.max_time_s, horizon: float = WINDOW_AHEAD):
         self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
-        self.horizon = check_number(horizon, "horizon")
+        self.horizon = check_number(horizon, "horizon", bound=HORIZON)
         if self.horizon <= TARGET_MARGIN:
             raise ValueError(f"horizon must be a finite distance above {TARGET_MARGIN} m, got {horizon!r}")
 
@@ -143,8 +144,9 @@ class Planner(ABC):
                              f"{rim[1]:g} m, above the body")
         if apex.xdot <= 0:
             raise ValueError(f"apex xdot={apex.xdot} must be positive: the planners hop forward")
-        goal_x = check_number(goal_x, "goal_x")
-        window_end = min(apex.x + self.horizon, terrain.x_end)
+        goal_x = check_number(goal_x, "goal_x", bound=POSITION)
+        # a map extends flat past its last cell; a perception window ends where the robot's knowledge does
+        window_end = min(apex.x + self.horizon, terrain.known_end)
         target_x = min(goal_x, window_end - TARGET_MARGIN)
         return Problem(apex, terrain, goal_x, params, window_end, target_x, t0 + self.budget.max_time_s)
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import importlib
 import inspect
-import json
+
+from drakeslip.jobs.files import parse_json
 
 from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS
 
@@ -128,17 +129,15 @@ def make_planners(specs: dict, controller=None) -> dict:
         shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
         try:
             planners[label] = make(label, **shared, **(options or {}))
-        except (TypeError, ValueError, OSError) as error:  # TypeError: an unknown keyword; OSError: a missing file
+        # TypeError: an unknown keyword; OSError: a missing file; OverflowError: an integer too large for a float
+        except (TypeError, ValueError, OSError, OverflowError) as error:
             raise ValueError(f"options for {label}: {error}") from error
     return planners
 
 
 def label_options(text: str, labels: list, kind: str = "planner") -> dict:
     """``--options`` JSON: an object mapping some of ``labels`` to option objects; a ValueError otherwise."""
-    try:
-        options = json.loads(text)
-    except json.JSONDecodeError as error:
-        raise ValueError(f"--options is not valid JSON ({error}): {text!r}") from None
+    options = parse_json(text, "--options")
     if not isinstance(options, dict) or any(k not in labels or not isinstance(v, dict) for k, v in options.items()):
         raise ValueError(f"--options must map {kind} labels among {labels} to option objects, got {text!r}")
     return options

@@ -11,7 +11,8 @@ from drakeslip.jobs.executors import make_executor
 from planners.closed_loop import ClosedLoopConfig
 from planners.formats.suite import load_suite, make_suite, save_suite
 from planners.registry import PRESETS, make_planners
-from verification import benchmark, report
+from verification import evaluation, report
+from verification.provenance import code_version
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -86,7 +87,7 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert len(cache.read_text().splitlines()) == 4
     with cache.open("a") as f:
         f.write('{"key": "cut sh')  # a line cut short by a kill is ignored
-    again = benchmark.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
+    again = evaluation.evaluate(load_suite(suite_path), {"heuristic": {}, "step": {}}, n_cases=2, cache_path=cache,
                                progress=False, config=ClosedLoopConfig())
     assert {**again, "provenance": None} == {**results, "provenance": None}  # all but the date and machine
 
@@ -97,7 +98,7 @@ def test_results_say_where_they_came_from():
     suite = make_suite("ditch", 7, 1, speeds=(2.0,), heights=(0.9,))
     from drakeslip.noise import profile
 
-    runs = [benchmark.evaluate(suite, {"heuristic": {}}, n_cases=1, progress=False, config=config)
+    runs = [evaluation.evaluate(suite, {"heuristic": {}}, n_cases=1, progress=False, config=config)
             for config in (ClosedLoopConfig(backend="fast"),
                            ClosedLoopConfig(backend="fast", executed_per_plan=1, noise=profile("realistic*0.5")))]
     quiet, noisy = (r["planners"]["heuristic"]["config"] for r in runs)
@@ -105,23 +106,24 @@ def test_results_say_where_they_came_from():
         0.5 * profile("realistic").leg_angle)
     assert (quiet["executed_per_plan"], noisy["executed_per_plan"]) == (3, 1) and quiet["backend"] == "fast"
     p = runs[0]["provenance"]
-    assert set(p) == {"package_version", "git_commit", "git_dirty", "versions", "cores", "date", "platform"}
+    assert set(p) == {"package_version", "code_version", "git_commit", "git_dirty", "versions", "cores", "date",
+                      "platform"}
     assert set(p["versions"]) == {"python", "drake", "torch", "numpy"} and p["versions"]["numpy"]
     assert p["cores"] >= 1 and p["date"].endswith("+00:00")
     weights = runs[0]["planners"]["heuristic"]["weights"]
-    assert weights == {"drakeslip/weights/controller.pt": benchmark.weights_files("heuristic", {})[
+    assert weights == {"drakeslip/weights/controller.pt": evaluation.weights_files("heuristic", {})[
         "drakeslip/weights/controller.pt"]} and len(next(iter(weights.values()))) == 64
-    lstm = benchmark.weights_files("lstm", None)
+    lstm = evaluation.weights_files("lstm", None)
     assert len(lstm) >= 2 and all(len(v) == 64 for v in lstm.values())  # the model's files too
 
 
 def test_every_kth_case_is_evaluated(tmp_path):
     suite = make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.8, 0.9))
-    results = benchmark.evaluate(suite, {"heuristic": {}}, n_cases=2, every=3, progress=False,
+    results = evaluation.evaluate(suite, {"heuristic": {}}, n_cases=2, every=3, progress=False,
                                   config=ClosedLoopConfig(backend="fast"))
     assert [c["id"] for c in results["planners"]["heuristic"]["cases"]] == [suite.cases[0].id, suite.cases[3].id]
     with pytest.raises(ValueError, match="every must be a positive integer, got 0"):
-        benchmark.evaluate(suite, {"heuristic": {}}, every=0, progress=False)
+        evaluation.evaluate(suite, {"heuristic": {}}, every=0, progress=False)
 
 
 def test_ratios_to_a_baseline_per_planning_call():
@@ -186,7 +188,7 @@ def test_evaluate_refuses_a_bad_planner_option_by_label_before_any_case(tmp_path
     cache = tmp_path / "cache.jsonl"
     for jobs in (1, 2):
         with pytest.raises(ValueError, match=r"options for step@fine: .*spacing must be a positive distance"):
-            benchmark.evaluate(suite, {"step": {}, "step@fine": {"spacing": 0.0}}, n_cases=1,
+            evaluation.evaluate(suite, {"step": {}, "step@fine": {"spacing": 0.0}}, n_cases=1,
                                executor=make_executor("local", jobs), cache_path=cache, progress=False)
         assert not cache.exists()
 
@@ -196,12 +198,12 @@ def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
     suite_path = tmp_path / "suite.json"
     suite_path.write_text(json.dumps(_doc()))
     specs = {"heuristic": {}, "heuristic@noshift": {"max_shift": 0.0}}
-    results = benchmark.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
+    results = evaluation.evaluate(load_suite(suite_path), specs, n_cases=1, progress=False,
                                   config=ClosedLoopConfig(backend="fast"))
     assert set(results["planners"]) == {"heuristic", "heuristic@noshift"}
     assert planners.planner_name("heuristic@noshift") == "heuristic"
     suite = load_suite(suite_path)
-    keys = {benchmark.fingerprint(suite, label, opts, ClosedLoopConfig(), None) for label, opts in specs.items()}
+    keys = {evaluation.fingerprint(suite, label, opts, ClosedLoopConfig(), None) for label, opts in specs.items()}
     assert len(keys) == 2
     assert "heuristic@noshift" in report.table(results)
 
@@ -218,9 +220,9 @@ def test_defaults_are_the_best_settings_and_the_papers_are_presets():
     updated = make_planners({"lstm@paper": {"max_steps": 2}})["lstm@paper"]
     assert updated.max_steps == 2 and updated.ranker is None
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    results = benchmark.evaluate(suite, {"lstm@no-ranker": {}}, n_cases=1, progress=False,
+    results = evaluation.evaluate(suite, {"lstm@no-ranker": {}}, n_cases=1, progress=False,
                                  config=ClosedLoopConfig(backend="fast"))
-    explicit = benchmark.evaluate(suite, {"lstm@no-ranker": PRESETS["lstm@no-ranker"]}, n_cases=1, progress=False,
+    explicit = evaluation.evaluate(suite, {"lstm@no-ranker": PRESETS["lstm@no-ranker"]}, n_cases=1, progress=False,
                                   config=ClosedLoopConfig(backend="fast"))
     strip = lambda r: [[p["footholds"] for p in c["plans"]] for c in r["planners"]["lstm@no-ranker"]["cases"]]
     assert strip(results) == strip(explicit)
@@ -233,7 +235,7 @@ def test_the_cache_key_follows_every_weights_file_an_option_names(tmp_path):
     suite = make_suite("ditch", seed=7, n_terrains=1)
     ranker = tmp_path / "ranker.pt"
     ranker.write_bytes(RANKER_WEIGHTS.read_bytes())
-    key = lambda: benchmark.fingerprint(suite, "lstm@r", {"ranker": str(ranker)}, ClosedLoopConfig(), None)
+    key = lambda: evaluation.fingerprint(suite, "lstm@r", {"ranker": str(ranker)}, ClosedLoopConfig(), None)
     before = key()
     assert key() == before
     ranker.write_bytes(RANKER_WEIGHTS.read_bytes() + b"retrained")
@@ -248,17 +250,69 @@ def test_the_cache_key_follows_the_checkpoint_a_trajopt_seed_reads(tmp_path):
     lstm = tmp_path / "lstm.pt"
     lstm.write_bytes(PAPER_WEIGHTS.read_bytes())
     options = {"seed": "lstm-guided@x", "seed_options": {"model": str(lstm)}}
-    key = lambda: benchmark.fingerprint(suite, "trajopt", options, ClosedLoopConfig(), None)
+    key = lambda: evaluation.fingerprint(suite, "trajopt", options, ClosedLoopConfig(), None)
     before = key()
     assert key() == before
     lstm.write_bytes(PAPER_WEIGHTS.read_bytes() + b"retrained")
     assert key() != before
-    step_seed = lambda: benchmark.fingerprint(suite, "trajopt", {"seed": "step"}, ClosedLoopConfig(), None)
+    step_seed = lambda: evaluation.fingerprint(suite, "trajopt", {"seed": "step"}, ClosedLoopConfig(), None)
     assert step_seed() == step_seed() != before
 
 
 def test_cost_weights_given_as_options_are_part_of_the_cache_key():
     """Angle- and Step-space take ``cost_weights`` (a list, not a file): the list is keyed as given."""
     suite = make_suite("ditch", seed=7, n_terrains=1)
-    key = lambda w: benchmark.fingerprint(suite, "step@w", {"cost_weights": w}, ClosedLoopConfig(), None)
+    key = lambda w: evaluation.fingerprint(suite, "step@w", {"cost_weights": w}, ClosedLoopConfig(), None)
     assert key([1, 0, 2]) == key([1, 0, 2]) != key([1, 1, 2])
+
+
+def test_resuming_after_a_code_change_runs_the_cases_again(tmp_path, monkeypatch, capsys):
+    """Cached cases are reused by the same code only: the results file's provenance names the code version its
+    per-case results were computed with, and another version ignores them (and says how many)."""
+    suite = make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.9,))
+    cache, config = tmp_path / "cache.jsonl", ClosedLoopConfig(backend="fast")
+    first = evaluation.evaluate(suite, {"heuristic": {}}, cache_path=cache, progress=False, config=config)
+    assert first["provenance"]["code_version"] == code_version()
+    again = evaluation.evaluate(suite, {"heuristic": {}}, cache_path=cache, progress=False, config=config)
+    assert f"cache {cache}: 2 of 2 results reused\n" in capsys.readouterr().out
+    assert again["planners"] == first["planners"]
+    real = evaluation.provenance
+    monkeypatch.setattr(evaluation, "provenance", lambda: {**real(), "code_version": "git:other"})
+    changed = evaluation.evaluate(suite, {"heuristic": {}}, cache_path=cache, progress=False, config=config)
+    assert f"cache {cache}: 0 of 2 results reused; 2 made by other code ignored\n" in capsys.readouterr().out
+    assert changed["provenance"]["code_version"] == "git:other"
+    assert len(cache.read_text().splitlines()) == 4   # the cases ran again, each line stamped with its code
+    assert [json.loads(line)["stamp"] for line in cache.read_text().splitlines()] == [code_version()] * 2 + [
+        "git:other"] * 2
+
+
+def test_the_code_version_follows_commits_uncommitted_changes_and_new_files(tmp_path, monkeypatch):
+    """``code_version`` of a checkout: the commit, plus a digest of uncommitted changes to tracked files and of
+    new files in the packages (not of outputs elsewhere); outside git, a digest of the packages' files."""
+    from verification import provenance
+
+    package = tmp_path / "drakeslip"
+    package.mkdir()
+    (package / "a.py").write_text("A = 1\n")
+    monkeypatch.setattr(provenance, "ROOT", tmp_path)
+    git = lambda *args: subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=tmp_path,
+                                       check=True, capture_output=True)
+    git("init", "-q")
+    git("add", ".")
+    git("commit", "-qm", "one")
+    commit = subprocess.run(["git", "rev-parse", "HEAD"], cwd=tmp_path, capture_output=True, text=True).stdout.strip()
+    assert provenance.code_version() == f"git:{commit}"
+    (tmp_path / "out.json").write_text("{}")   # an output: not code
+    assert provenance.code_version() == f"git:{commit}"
+    (package / "a.py").write_text("A = 2\n")
+    edited = provenance.code_version()
+    (package / "a.py").write_text("A = 3\n")
+    assert edited.startswith(f"git:{commit}+") and provenance.code_version() not in (edited, f"git:{commit}")
+    (package / "a.py").write_text("A = 1\n")
+    (package / "b.py").write_text("B = 1\n")   # a new module of the package
+    assert provenance.code_version().startswith(f"git:{commit}+")
+    subprocess.run(["rm", "-rf", str(tmp_path / ".git")], check=True)
+    source = provenance.code_version()
+    assert source.startswith("source:") and provenance.provenance(source)["git_commit"] is None
+    (package / "b.py").write_text("B = 2\n")
+    assert provenance.code_version() != source

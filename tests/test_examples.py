@@ -48,8 +48,8 @@ def test_the_main_job_reaches_the_goal_and_writes_its_figure(tmp_path, run_scrip
 
 @pytest.mark.parametrize("args, message", [
     (["--planner", "warp"], "unknown planner 'warp'"),
-    (["--friction", "-1"], "--friction: must be a finite number > 0.0, got '-1'"),
-    (["--speed", "nan"], "--speed: must be a finite number > 0.0, got 'nan'"),
+    (["--friction", "-1"], "--friction: must be a finite number >= 0.001 and <= 10.0, got '-1'"),
+    (["--speed", "nan"], "--speed: must be a finite number > 0.0 and <= 50.0, got 'nan'"),
     (["--out", "x.xyz"], "--out: must end in .png or .pdf or .svg, got 'x.xyz'"),
 ])
 def test_the_main_job_refuses_bad_input_in_one_line_before_any_work(run_script, args, message):

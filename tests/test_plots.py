@@ -12,7 +12,7 @@ from drakeslip.noise import profile
 from planners.closed_loop import ClosedLoopConfig
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import make_suite, save_suite
-from verification import benchmark, plots
+from verification import evaluation, plots
 
 
 def is_png(path) -> bool:
@@ -25,7 +25,7 @@ def runs():
     suite = make_suite("ditch", 7, 1, speeds=(2.0, 2.5), heights=(0.9,))
     # the controller named explicitly: drakeslip.jobs.executors.prepare skips a setup this process already ran
     # even when another one ran since (then the planners are not this run's); a setup of its own avoids that
-    return [benchmark.evaluate(suite, {"heuristic": {}, "step": {}}, n_cases=2, progress=False,
+    return [evaluation.evaluate(suite, {"heuristic": {}, "step": {}}, n_cases=2, progress=False,
                                controller_path=str(DEFAULT_WEIGHTS), config=ClosedLoopConfig(backend="fast", noise=profile(f"realistic*{k}")))
             for k in (0, 0.5)]
 

@@ -67,7 +67,7 @@ def test_tasks_run_on_every_node_with_our_packages_shipped(address):
 
 
 def test_evaluation_on_the_cluster_matches_this_process(address, suite):
-    from verification.benchmark import evaluate
+    from verification.evaluation import evaluate
 
     def run(executor):
         return evaluate(suite, {"step": {}, "heuristic": {}}, n_cases=10, executor=executor,

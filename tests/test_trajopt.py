@@ -313,8 +313,8 @@ def test_as_a_planner_it_returns_the_optimized_plan():
 
 @pytest.mark.slow  # two trajectory optimizations and their Drake checks, twice
 def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
-    """examples/trajopt_warmstart.py on a one-case suite: the issue's JSON format, a verified cold start, a
-    rerun served from the case cache, and a bad --starts refused with the bad value named."""
+    """examples/trajopt_warmstart.py on a one-case suite: the documented JSON format, a verified cold start, a
+    rerun of the same code served from the case cache, and a bad --starts refused with the bad value named."""
     import json
     import subprocess
     import sys
@@ -336,6 +336,10 @@ def test_warmstart_example_writes_the_documented_format_and_resumes(tmp_path):
     assert block["verified_rate"] == block["first_start_verified_rate"] == 1.0
     assert len(block["cases"]) == 1 and block["cases"][0]["id"] == "flat-v2"
     assert len(Path(str(out) + ".cases.jsonl").read_text().splitlines()) == 1   # the rerun solved nothing
+    assert "1 of 1 results reused" in runs[1].stdout
+    from verification.provenance import code_version
+
+    assert json.loads(out.read_text())["provenance"]["code_version"] == code_version()   # the solves' code
     bad = subprocess.run(cmd[:-5] + ["--starts", "9", "--out", str(out)], capture_output=True, text=True,
                          cwd=root, timeout=120)
     assert bad.returncode == 2 and "starts must be an integer in 1..5, got 9" in bad.stderr

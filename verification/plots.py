@@ -1,6 +1,6 @@
 """Figures of results, written as PNG (matplotlib on Agg canvases, no display, the caller's backend untouched).
 
-From results JSONs of ``verification.benchmark.evaluate`` (examples/evaluate.py, examples/plot_results.py):
+From results JSONs of ``verification.evaluation.evaluate`` (examples/evaluate.py, examples/plot_results.py):
 ``success_figure`` (success rate per planner and run with 95 % Wilson intervals, the paper's values marked),
 ``cost_figure`` (ODE calls and planning time per planning call, log scale) and ``noise_figure`` (success against
 the noise scale of runs with ``realistic*K`` noise). From ``Robustness.to_dict()`` (examples/robustness.py):

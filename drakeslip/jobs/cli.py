@@ -2,8 +2,10 @@
 the same everywhere, and the exit codes.
 
 Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop); 2 a usage or input
-error, reported in one line before any work starts. Heavy libraries (torch, pydrake, matplotlib, ray) are not
-imported here, so a script's ``--help`` is fast.
+error, reported in one line before any work starts. Ctrl-C (SIGINT) ends a script with one line on stderr saying
+what it saved (``interrupted``) and no worker process left behind; the process then ends by SIGINT, as an
+interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops a script that runs it. Heavy
+libraries (torch, pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast.
 """
 from __future__ import annotations
 
@@ -14,7 +16,9 @@ import shlex
 import sys
 from pathlib import Path
 
+from drakeslip.bounds import Bound
 from drakeslip.jobs.executors import make_executor
+from drakeslip.jobs.runner import saved_so_far
 
 OK, FAILED, USAGE = 0, 1, 2
 
@@ -34,9 +38,30 @@ class ArgumentParser(argparse.ArgumentParser):
 
     def __init__(self, description: str | None = None, **kwargs):
         super().__init__(description=description, formatter_class=Formatter, allow_abbrev=False, **kwargs)
+        report_interrupts()
 
     def error(self, message: str):
         self.exit(USAGE, f"{self.prog}: error: {message}\n")
+
+
+def report_interrupts() -> None:
+    """Make Ctrl-C end this script in one line on stderr instead of a traceback: what the job runner saved
+    (``drakeslip.jobs.runner.saved_so_far``) and how to resume, or that nothing was cached. Every script's parser
+    calls it; other exceptions keep the hook they had."""
+    if getattr(sys.excepthook, "reports_interrupts", False):
+        return
+    previous = sys.excepthook
+
+    def hook(kind, error, trace):
+        if not issubclass(kind, KeyboardInterrupt):
+            return previous(kind, error, trace)
+        saved = saved_so_far()
+        what = f"{saved}; rerun the same command to resume" if saved else "no results were cached"
+        sys.stderr.write(f"{Path(sys.argv[0]).name}: interrupted: {what}\n")
+        sys.stderr.flush()
+
+    hook.reports_interrupts = True
+    sys.excepthook = hook
 
 
 def integer(low: int | None = None, high: int | None = None):
@@ -68,6 +93,12 @@ def number(low: float | None = None, high: float | None = None, strict_low: bool
             raise argparse.ArgumentTypeError(f"must be a finite number{' ' + where if where else ''}, got {text!r}")
         return value
     return parse
+
+
+def physical(bound: Bound, positive: bool = False):
+    """An argument type: a finite number inside a physical bound of ``drakeslip.bounds`` (above 0 if
+    ``positive``)."""
+    return number(0.0 if positive else bound.low, bound.high, strict_low=positive)
 
 
 positive_int = integer(1)

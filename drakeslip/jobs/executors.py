@@ -8,6 +8,9 @@ planners), and again only when a different setup ran there since, so a task can 
 Local workers are spawned, not forked (a child forked while torch or numba threads run can deadlock), use one
 BLAS/OpenMP thread each, and die with the process that started them: a SIGKILL of the parent reaches them
 through the kernel's parent-death signal, and a SIGTERM or SIGINT of the parent terminates them before it exits.
+They ignore SIGINT themselves: a terminal's Ctrl-C reaches the whole process group, and the parent ends them
+(a worker's own KeyboardInterrupt would print a traceback of its own). Tasks in flight on Ray are cancelled
+when the caller stops early (an error, Ctrl-C).
 """
 from __future__ import annotations
 
@@ -110,12 +113,16 @@ class RayCluster:
         remote = ray.remote(num_cpus=1)(call)
         limit = self.jobs or max(1, int(ray.cluster_resources().get("CPU", 1)))
         todo, running = list(tasks)[::-1], []
-        while todo or running:
-            while todo and len(running) < limit:
-                tag, args = todo.pop()
-                running.append(remote.remote(setup, fn, tag, args))
-            done, running = ray.wait(running, num_returns=1)
-            yield ray.get(done[0])
+        try:
+            while todo or running:
+                while todo and len(running) < limit:
+                    tag, args = todo.pop()
+                    running.append(remote.remote(setup, fn, tag, args))
+                done, running = ray.wait(running, num_returns=1)
+                yield ray.get(done[0])
+        finally:
+            for ref in running:   # stopped early: no task runs on for nobody
+                ray.cancel(ref, force=True)
 
 
 def toolkit_packages() -> list[str]:
@@ -147,7 +154,8 @@ def _star_call(packed):
 
 
 def _die_with_parent(parent: int) -> None:
-    """Worker start: end this process when the parent dies, however it dies."""
+    """Worker start: end this process when the parent dies, however it dies; leave Ctrl-C to the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     try:
         import ctypes
 

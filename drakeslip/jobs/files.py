@@ -40,26 +40,46 @@ def read_json(path, what: str):
     """The JSON document in ``path``; one that does not parse raises ValueError naming ``what`` and the file."""
     path = Path(path)
     try:
-        return json.loads(path.read_text())
+        text = path.read_text()
     except UnicodeDecodeError as exc:
         raise ValueError(f"{what} {path} is not JSON: not UTF-8 text ({exc.reason} at byte {exc.start})") from exc
+    return parse_json(text, f"{what} {path}")
+
+
+def parse_json(text: str, what: str):
+    """The JSON document ``text`` (a file's, or an option's given on a command line); one that does not parse, or
+    is nested too deeply for the parser, raises ValueError naming ``what``, in one line."""
+    try:
+        return json.loads(text)
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{what} {path} is not valid JSON: {exc}") from exc
+        raise ValueError(f"{what} is not valid JSON: {exc}") from exc
+    except RecursionError:
+        raise ValueError(f"{what} is nested too deeply to read as JSON") from None
 
 
-def read_jsonl_cache(path, key_of, value_of) -> dict:
+def read_jsonl_cache(path, key_of, value_of, skipped: list | None = None) -> dict:
     """{key_of(entry): value_of(entry)} over the JSON lines of ``path`` (empty if it does not exist). A resumable
-    job appends one line per finished item; a line cut short by a kill, one that is not UTF-8 JSON, or one missing
-    a field is skipped."""
-    cache = {}
+    job appends one line per finished item; a line cut short by a kill, one that is not UTF-8 JSON, or one that
+    ``key_of`` or ``value_of`` refuses (KeyError, TypeError or ValueError: a missing or bad field) is skipped,
+    and ``(line number, why)`` appended to ``skipped`` when given."""
+    cache, skipped = {}, [] if skipped is None else skipped
     path = Path(path)
     if path.exists():
-        for line in path.read_bytes().splitlines():
+        for number, line in enumerate(path.read_bytes().splitlines(), start=1):
+            if not line.strip():
+                continue
             try:
                 entry = json.loads(line.decode("utf-8"))
                 cache[key_of(entry)] = value_of(entry)
-            except (UnicodeDecodeError, json.JSONDecodeError, KeyError, TypeError):
-                continue
+            except (UnicodeDecodeError, json.JSONDecodeError, RecursionError) as exc:
+                why = "not UTF-8 JSON"
+                if isinstance(exc, json.JSONDecodeError) and exc.pos >= len(line.rstrip()):
+                    why = "cut short"
+                skipped.append((number, why))
+            except KeyError as exc:
+                skipped.append((number, f"no field {exc}"))
+            except (TypeError, ValueError) as exc:
+                skipped.append((number, str(exc) or type(exc).__name__))
     return cache
 
 

@@ -8,10 +8,12 @@ last foothold reaches by the plan's own account: the planner's target when the f
 foothold (a plan that stops where the robot's view ends, or plans one step ahead). A planner that does not
 predict angles or apexes (``lstm`` gives only the first angle) leaves NaN there, stored as ``null``.
 
-A file whose fields disagree with each other is malformed (ValueError naming the field): lengths that differ,
-footholds that do not increase, a start or predicted apex not above the terrain, a start inside a ditch, a leg
-angle outside (-pi/2, pi/2), a predicted apex given in part. Version 1 files are read too (their ``target_x`` is
-the planner's target).
+A file whose fields disagree with each other, or hold a value outside its physical bound (``drakeslip.bounds``),
+is malformed (ValueError naming the field): lengths that differ, a foothold two leg reaches or more behind the one
+before it (2 L0 sin(atan mu): the body moves forward, but a slow gait may step back by less), predicted apexes
+whose x does not increase, a start or predicted apex not above the terrain, a start inside a ditch, a leg angle
+outside (-pi/2, pi/2), a predicted apex given in part. Version 1 files are read too (their ``target_x`` is the
+planner's target).
 """
 from __future__ import annotations
 
@@ -23,12 +25,13 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.bounds import CELL, POSITION, TERRAIN_START
 from drakeslip.params import check_number
-from drakeslip.state import as_apex, check_apex
+from drakeslip.state import APEX_BOUNDS, as_apex, check_apex
 from drakeslip.terrain import DITCH_HEIGHT, family
 
 from planners.base import Plan
-from planners.formats.suite import required_field
+from planners.formats.suite import read_apex, required_field
 
 PLAN_FORMAT = "drakeslip-plan/2"
 READ_FORMATS = ("drakeslip-plan/1", PLAN_FORMAT)
@@ -118,12 +121,12 @@ class PlanRecord:
         heights = required_field(t, "heights", where)
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.heights must be a non-empty list of numbers")
-        terrain = Terrain([check_number(h, f"{where}.heights[{j}]") for j, h in enumerate(heights)],
-                          cell=check_number(required_field(t, "cell", where), f"{where}.cell", positive=True),
-                          x0=check_number(required_field(t, "x0", where), f"{where}.x0"),
-                          ditch_height=check_number(required_field(t, "ditch_height", where), f"{where}.ditch_height"))
-        a = required_field(d, "apex", source)
-        apex = ApexState(*(check_number(required_field(a, k, f"{source}: apex"), f"{source}: apex.{k}") for k in ApexState._fields))
+        terrain = Terrain([check_number(h, f"{where}.heights[{j}]", bound=POSITION) for j, h in enumerate(heights)],
+                          cell=check_number(required_field(t, "cell", where), f"{where}.cell", bound=CELL),
+                          x0=check_number(required_field(t, "x0", where), f"{where}.x0", bound=TERRAIN_START),
+                          ditch_height=check_number(required_field(t, "ditch_height", where), f"{where}.ditch_height",
+                                                    bound=POSITION))
+        apex = read_apex(required_field(d, "apex", source), f"{source}: apex")
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{source}: apex.z={apex.z} is not above the terrain at x={apex.x}")
         p = required_field(d, "params", source)
@@ -133,16 +136,18 @@ class PlanRecord:
             params = SlipParams(**p)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{source}: params: {exc}") from exc
-        footholds = [check_number(v, f"{source}: footholds[{i}]") for i, v in enumerate(_list(d, "footholds", source))]
+        footholds = [check_number(v, f"{source}: footholds[{i}]", bound=POSITION)
+                     for i, v in enumerate(_list(d, "footholds", source))]
         n = len(footholds)
         angles = [_optional(v, f"{source}: leg_angles[{i}]") for i, v in enumerate(_list(d, "leg_angles", source, n))]
         apexes = []
         for i, row in enumerate(_list(d, "apexes", source, n)):
             if not isinstance(row, list) or len(row) != 3:
                 raise ValueError(f"{source}: apexes[{i}] must be [x, z, xdot], got {row!r}")
-            apexes.append([_optional(v, f"{source}: apexes[{i}][{j}]") for j, v in enumerate(row)])
-        goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x")
-        target_x = check_number(required_field(d, "target_x", source), f"{source}: target_x")
+            apexes.append([_optional(v, f"{source}: apexes[{i}][{j}]", bound)
+                           for j, (v, bound) in enumerate(zip(row, APEX_BOUNDS))])
+        goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
+        target_x = check_number(required_field(d, "target_x", source), f"{source}: target_x", bound=POSITION)
         try:
             return cls(planner, apex, terrain, params, goal_x, target_x, np.array(footholds), np.array(angles),
                        np.array(apexes).reshape(n, 3))
@@ -184,9 +189,9 @@ def _nulls(values: np.ndarray) -> list:
     return [_nulls(v) if isinstance(v, np.ndarray) else (None if math.isnan(v) else float(v)) for v in values]
 
 
-def _optional(value, where: str) -> float:
-    """A number or null (NaN: the planner made no prediction)."""
-    return math.nan if value is None else check_number(value, where)
+def _optional(value, where: str, bound=None) -> float:
+    """A number inside ``bound`` or null (NaN: the planner made no prediction)."""
+    return math.nan if value is None else check_number(value, where, bound=bound)
 
 
 def _list(d, key: str, source: str, length: int | None = None) -> list:

@@ -6,7 +6,9 @@ from dataclasses import dataclass
 
 from drakeslip import ApexState, Terrain
 from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
 from drakeslip.params import check_number
+from drakeslip.state import APEX_BOUNDS
 from drakeslip.terrain import family as terrain_family
 
 SUITE_FORMAT = "drakeslip-suite/1"
@@ -84,8 +86,8 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     name = required_field(d, "name", source)
     if not isinstance(name, str):
         raise ValueError(f"{source}: name must be a string, got {name!r}")
-    goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x")
-    friction = check_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
+    goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
+    friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
     raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
@@ -97,22 +99,27 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
             raise ValueError(f"{where}.id must be a unique string, got {case_id!r}")
         ids.add(case_id)
         t = required_field(c, "terrain", where)
-        x0 = check_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0")
-        cell = check_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", positive=True)
+        x0 = check_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0", bound=TERRAIN_START)
+        cell = check_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", bound=CELL)
         heights = required_field(t, "heights", f"{where}.terrain")
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
-        for j, h in enumerate(heights):
-            check_number(h, f"{where}.terrain.heights[{j}]")
-        terrain = Terrain(heights, cell=cell, x0=x0)
-        a = required_field(c, "apex", where)
-        apex = ApexState(*(check_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
+        terrain = Terrain([check_number(h, f"{where}.terrain.heights[{j}]", bound=POSITION)
+                           for j, h in enumerate(heights)], cell=cell, x0=x0)
+        apex = read_apex(required_field(c, "apex", where), f"{where}.apex")
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:
             raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
         cases.append(Case(case_id, terrain, apex))
     return Suite(name, goal_x, friction, tuple(cases))
+
+
+def read_apex(a, where: str) -> ApexState:
+    """An apex object ``{"x", "z", "xdot"}`` of a JSON file, each field checked against its bound
+    (``drakeslip.state.APEX_BOUNDS``); a ValueError naming ``where`` and the field otherwise."""
+    return ApexState(*(check_number(required_field(a, k, where), f"{where}.{k}", bound=bound)
+                       for k, bound in zip(ApexState._fields, APEX_BOUNDS)))
 
 
 def load_suite(path) -> Suite:

@@ -1,11 +1,14 @@
-"""The benchmark harness: planners evaluated on a suite in the receding-horizon loop (paper, section VII).
+"""The evaluation harness: planners evaluated on a suite in the receding-horizon loop (paper, section VII).
 
 Each (planner label, case) is one task of the job runner (``drakeslip.jobs``): run in this process, in local
 worker processes or on a Ray cluster, saved to a JSON-lines store as it finishes, and reused by a later run of
-the same setup, so a killed evaluation resumes where it stopped. A task's key is a fingerprint of everything its
-result depends on: the case, the planner and its options after presets, the closed-loop settings, and the
-digests of the controller and every weights file the planner reads. The results record them too (each planner's
-"options", "config" and "weights": SHA-256 by file) with the code, libraries, machine and date ("provenance").
+the same setup with the same code, so a killed evaluation resumes where it stopped. A task's key is a
+fingerprint of everything its result depends on: the code version (``verification.provenance.code_version``:
+the commit and a digest of uncommitted changes), the case, the planner and its options after presets, the
+closed-loop settings, and the digests of the controller and every weights file the planner reads. Cached results
+of other code are never reused: the run says how many cached results it reused and how many of other code it
+ignored, and computes the rest. The results record the same (each planner's "options", "config" and "weights":
+SHA-256 by file) with the code version the keys hold, the libraries, machine and date ("provenance").
 """
 from __future__ import annotations
 
@@ -22,10 +25,11 @@ from drakeslip.jobs.runner import JsonLinesStore, run
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.suite import Suite, suite_from_dict
 from planners.registry import files_read, make_planners, options_for
-from verification.provenance import provenance, weights_digests
+from verification.provenance import code_version, provenance, weights_digests
 from verification.report import summarize
 
 _WORKER: dict = {}
+CASE_FIELDS = ("id", "success", "failure", "final_x", "plans")   # a cached result lacking one is run again
 
 
 def controller_weights(path=None) -> str:
@@ -39,20 +43,23 @@ def digest(path) -> str:
     return sha256(path)[:16] if path.is_file() else str(path)
 
 
-def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path) -> str:
-    """Identifies a (suite, planner, options, closed loop, weights) setup, so cached cases are reused only for
-    the same setup: retraining the controller or any weights file the planner reads invalidates them."""
+def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path,
+                code: str | None = None) -> str:
+    """Identifies a (code, suite, planner, options, closed loop, weights) setup, so cached cases are reused only
+    for the same setup: changing the code (``code``, default ``code_version()``), retraining the controller or
+    any weights file the planner reads invalidates them."""
     files = {name: digest(path) for name, path in files_read(label, options).items()}
     loop = config.to_dict()
     if config.noise.silent:  # a noiseless run does not depend on the noise's seed: its cached cases stay valid
         del loop["noise"], loop["seed"]
-    blob = json.dumps([suite.goal_x, suite.friction, label, options, loop,
-                       digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
+    blob = json.dumps([code_version() if code is None else code, suite.goal_x, suite.friction, label, options,
+                       loop, digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 def case_key(setup: str, case) -> str:
-    """The store key of one case under one setup: the setup's fingerprint and the case's own content."""
+    """The store key of one case under one setup (a ``fingerprint``, which holds the code version): the setup
+    and the case's own content."""
     blob = json.dumps([setup, case.id, case.terrain.to_dict(), list(case.apex)], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
@@ -94,7 +101,9 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``, in
     the closed loop ``config`` describes (one for all, or a dict by label, e.g. for each preset's replanning
     period). Finished cases go to ``cache_path`` (JSON lines) as they complete and are reused when the run is
-    started again. ``executor``: where the cases run (``drakeslip.jobs.executors``; default this process)."""
+    started again with the same code; a damaged cached case (a line cut short, a result lacking one of
+    CASE_FIELDS) is skipped with a warning and run again. ``executor``: where the cases run
+    (``drakeslip.jobs.executors``; default this process)."""
     from tqdm import tqdm
 
     cases = select(suite, n_cases, every)
@@ -104,12 +113,13 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     setup = worker_setup(specs, controller_path, next(iter(configs.values())).refine)
     specs = setup[1][0]
     prepare(setup)  # in this process first: a bad option or weights file fails before any case runs
-    setups = {label: fingerprint(suite, label, options, configs[label], controller_path)
+    origin = provenance()   # the code version the keys hold is the one the results file names
+    setups = {label: fingerprint(suite, label, options, configs[label], controller_path, origin["code_version"])
               for label, options in specs.items()}
     owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
     tasks = [(key, (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}, suite.goal_x,
                     suite.friction, configs[label])) for key, (label, c) in owner.items()]
-    store = JsonLinesStore(cache_path) if cache_path else None
+    store = JsonLinesStore(cache_path, CASE_FIELDS, origin["code_version"]) if cache_path else None
     done = {label: {} for label in specs}
     with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
         for key, result in run(run_task, tasks, store, executor, setup):
@@ -117,7 +127,7 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
             done[label][case.id] = result
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
-    return {"suite": suite.name, "options": specs, "provenance": provenance(),
+    return {"suite": suite.name, "options": specs, "provenance": origin,
             "planners": {label: {"config": configs[label].to_dict(),
                                  "weights": weights_files(label, specs[label], controller_path),
                                  **summarize([done[label][c.id] for c in cases])}
