@@ -1,13 +1,18 @@
-"""Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``)."""
+"""Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``).
+
+Two fields are optional: ``"hopper"`` (the record, ``Hopper.to_record``, of the hopper a suite was drawn for; a
+suite without one is for the paper's hopper) and a terrain's ``"ditch_height"`` (written where it is not
+DITCH_HEIGHT, as for a terrain file whose solid ground reaches below -1 m)."""
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
 
 from drakeslip import ApexState, Terrain
+from drakeslip.hopper_file import Hopper, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.params import check_number
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import DITCH_HEIGHT, TERRAIN_FAMILIES
 
 SUITE_FORMAT = "drakeslip-suite/1"
 # The paper's protocol: 15 terrains per family, goal at x = 10 m, friction 0.8. Each terrain is paired with
@@ -39,10 +44,22 @@ class Suite:
     goal_x: float
     friction: float
     cases: tuple
+    hopper: Hopper | None = None   # the hopper the suite was drawn for; None: the paper's
 
     def to_dict(self) -> dict:
-        return {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction,
-                "cases": [{"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()} for c in self.cases]}
+        head = {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction}
+        if self.hopper is not None:
+            head["hopper"] = self.hopper.to_record()
+        return {**head, "cases": [{"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()}
+                                  for c in self.cases]}
+
+
+def terrain_record(terrain: Terrain) -> dict:
+    """A terrain as a suite stores it: ``Terrain.to_dict()``, with ``ditch_height`` where it is not DITCH_HEIGHT."""
+    record = terrain.to_dict()
+    if terrain.ditch_height != DITCH_HEIGHT:
+        record["ditch_height"] = terrain.ditch_height
+    return record
 
 
 def make_suite(family: str, seed: int, n_terrains: int = PAPER_TERRAINS, speeds=PAPER_SPEEDS,
@@ -86,6 +103,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
         raise ValueError(f"{source}: name must be a string, got {name!r}")
     goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x")
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", positive=True)
+    hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
     raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
@@ -104,7 +122,9 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
         for j, h in enumerate(heights):
             check_number(h, f"{where}.terrain.heights[{j}]")
-        terrain = Terrain(heights, cell=cell, x0=x0)
+        ditch_height = check_number(t["ditch_height"], f"{where}.terrain.ditch_height") if "ditch_height" in t \
+            else DITCH_HEIGHT
+        terrain = Terrain(heights, cell=cell, x0=x0, ditch_height=ditch_height)
         a = required_field(c, "apex", where)
         apex = ApexState(*(check_number(required_field(a, k, f"{where}.apex"), f"{where}.apex.{k}") for k in ApexState._fields))
         if apex.z <= terrain.height_at(apex.x):
@@ -112,7 +132,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
         if apex.xdot <= 0:
             raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
         cases.append(Case(case_id, terrain, apex))
-    return Suite(name, goal_x, friction, tuple(cases))
+    return Suite(name, goal_x, friction, tuple(cases), hopper)
 
 
 def load_suite(path) -> Suite:
