@@ -1,15 +1,20 @@
-"""Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``)."""
+"""Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``).
+
+Two fields are optional: ``"hopper"`` (the record, ``Hopper.to_record``, of the hopper a suite was drawn for; a
+suite without one is for the paper's hopper) and a terrain's ``"ditch_height"`` (written where it is not
+DITCH_HEIGHT, as for a terrain file whose solid ground reaches below -1 m)."""
 from __future__ import annotations
 
 import json
 from dataclasses import dataclass
 
 from drakeslip import ApexState, Terrain
+from drakeslip.hopper_file import Hopper, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
 from drakeslip.params import check_number
 from drakeslip.state import APEX_BOUNDS
-from drakeslip.terrain import family as terrain_family
+from drakeslip.terrain import DITCH_HEIGHT, family as terrain_family
 
 SUITE_FORMAT = "drakeslip-suite/1"
 # The paper's protocol: 15 terrains per family, goal at x = 10 m, friction 0.8. Each terrain is paired with
@@ -42,10 +47,22 @@ class Suite:
     goal_x: float
     friction: float
     cases: tuple
+    hopper: Hopper | None = None   # the hopper the suite was drawn for; None: the paper's
 
     def to_dict(self) -> dict:
-        return {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction,
-                "cases": [{"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()} for c in self.cases]}
+        head = {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction}
+        if self.hopper is not None:
+            head["hopper"] = self.hopper.to_record()
+        return {**head, "cases": [{"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()}
+                                  for c in self.cases]}
+
+
+def terrain_record(terrain: Terrain) -> dict:
+    """A terrain as a suite stores it: ``Terrain.to_dict()``, with ``ditch_height`` where it is not DITCH_HEIGHT."""
+    record = terrain.to_dict()
+    if terrain.ditch_height != DITCH_HEIGHT:
+        record["ditch_height"] = terrain.ditch_height
+    return record
 
 
 def make_suite(family: str, seed: int, n_terrains: int = PAPER_TERRAINS, speeds=PAPER_SPEEDS,
@@ -88,6 +105,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
         raise ValueError(f"{source}: name must be a string, got {name!r}")
     goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
+    hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
     raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
@@ -104,15 +122,17 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
         heights = required_field(t, "heights", f"{where}.terrain")
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
+        ditch_height = check_number(t["ditch_height"], f"{where}.terrain.ditch_height", bound=POSITION) \
+            if "ditch_height" in t else DITCH_HEIGHT
         terrain = Terrain([check_number(h, f"{where}.terrain.heights[{j}]", bound=POSITION)
-                           for j, h in enumerate(heights)], cell=cell, x0=x0)
+                           for j, h in enumerate(heights)], cell=cell, x0=x0, ditch_height=ditch_height)
         apex = read_apex(required_field(c, "apex", where), f"{where}.apex")
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:
             raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
         cases.append(Case(case_id, terrain, apex))
-    return Suite(name, goal_x, friction, tuple(cases))
+    return Suite(name, goal_x, friction, tuple(cases), hopper)
 
 
 def read_apex(a, where: str) -> ApexState:

@@ -1,0 +1,221 @@
+"""Hopper files: a SLIP hopper's parameters in a small JSON or TOML file, and hopper folders that hold one with the
+weights files trained for it.
+
+A hopper file (JSON; TOML with the same keys is read too, by its ``.toml`` suffix)::
+
+    {"format": "drakeslip-hopper/1", "name": "paper", "mass": 7.0, "leg_length": 0.5, "stiffness": 3200.0,
+     "gravity": 9.81, "friction": 0.8, "min_leg_length": 0.3}
+
+mass [kg], leg_length (spring rest length L0) [m] and stiffness [N/m] are required; gravity [m/s^2] (9.81),
+friction (0.8) and min_leg_length [m] (where the spring bottoms out, 0.6 leg_length) default to ``SlipParams``'s.
+The stroke may be given instead of min_leg_length as ``stroke``, the fraction of the leg the spring can compress
+(min_leg_length = leg_length (1 - stroke)); giving both is an error. ``name`` (default: the file's stem) and
+``format`` are optional. Saved files spell every field out, with min_leg_length, so they load to the same floats.
+
+A hopper folder holds ``hopper.json``, the weights files trained for that hopper, and a ``SHA256SUMS`` manifest
+(``drakeslip.jobs.files``); ``load_hopper`` takes the folder or the file. The paper's hopper ships as
+``drakeslip/hoppers/paper.json`` and is the default everywhere (``paper_hopper()``, ``--hopper paper``).
+"""
+from __future__ import annotations
+
+import argparse
+import functools
+import json
+import tomllib
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+from drakeslip.jobs.files import MANIFEST, atomic_write, first_line, manifest_entries, read_json, record_digest, sha256
+from drakeslip.params import SlipParams, check_number
+from drakeslip.units import HopperUnits
+
+HOPPER_FORMAT = "drakeslip-hopper/1"
+FOLDER_FILE = "hopper.json"            # the hopper file inside a hopper folder
+PACKAGED = Path(__file__).resolve().parent / "hoppers"
+PARAM_FIELDS = ("mass", "leg_length", "stiffness", "gravity", "friction", "min_leg_length")  # SlipParams's order
+REQUIRED = ("mass", "leg_length", "stiffness")
+FIELDS = ("format", "name", *PARAM_FIELDS, "stroke")
+
+
+@dataclass(frozen=True)
+class Hopper:
+    """A hopper: its ``params``, its ``name``, and where it was read from: ``sha256`` of the hopper file's bytes,
+    ``source`` (the file) and ``folder`` (the hopper folder, None for a lone file). A hopper built in code or read
+    back from a record has no source."""
+
+    params: SlipParams
+    name: str
+    sha256: str | None = None
+    source: Path | None = None
+    folder: Path | None = None
+
+    @property
+    def units(self) -> HopperUnits:
+        return HopperUnits.of(self.params)
+
+    def weights(self, name: str) -> Path | None:
+        """The path of the weights file ``name`` in this hopper's folder, or None when there is no folder or no
+        such file in it. (``drakeslip.jobs.files.load_weights`` checks it against the folder's manifest.)"""
+        if not isinstance(name, str) or not name or Path(name).name != name:
+            raise ValueError(f"a weights file name must be a plain file name, got {name!r}")
+        if self.folder is None:
+            return None
+        path = self.folder / name
+        return path if path.is_file() else None
+
+    def to_record(self) -> dict:
+        """What results JSON and plan files keep of the hopper: its name, every parameter, and the file's digest."""
+        return {"name": self.name, "params": asdict(self.params), "sha256": self.sha256}
+
+
+def params_from_fields(d: dict, source: str) -> SlipParams:
+    """SlipParams from a hopper document's parameter fields (see the module doc); a missing, malformed or
+    out-of-bounds one raises ValueError naming ``source`` and the field."""
+    for key in REQUIRED:
+        if key not in d:
+            raise ValueError(f"{source} is missing the field {key!r}")
+    values = {key: check_number(d[key], f"{source}: {key}", positive=True)
+              for key in (*PARAM_FIELDS, "stroke") if key in d}
+    if "stroke" in values:
+        if "min_leg_length" in values:
+            raise ValueError(f"{source}: give stroke or min_leg_length, not both")
+        stroke = values.pop("stroke")
+        if not stroke < 1.0:
+            raise ValueError(f"{source}: stroke must be a fraction of the leg in (0, 1), got {stroke!r}")
+        values["min_leg_length"] = values["leg_length"] * (1.0 - stroke)
+    try:
+        return SlipParams(**values)
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
+
+
+def hopper_from_dict(d, source: str, default_name: str) -> tuple[SlipParams, str]:
+    """(params, name) from a hopper document; any bad field raises ValueError naming ``source`` and the field."""
+    if not isinstance(d, dict):
+        raise ValueError(f"{source} must hold a table of fields, got {type(d).__name__}")
+    unknown = [key for key in d if key not in FIELDS]
+    if unknown:
+        raise ValueError(f"{source}: unknown field {unknown[0]!r} (the fields are {', '.join(FIELDS)})")
+    if "format" in d and d["format"] != HOPPER_FORMAT:
+        raise ValueError(f"{source}: format must be {HOPPER_FORMAT!r}, got {d['format']!r}")
+    name = d.get("name", default_name)
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"{source}: name must be a non-empty string, got {name!r}")
+    return params_from_fields({k: v for k, v in d.items() if k not in ("format", "name")}, source), name
+
+
+def load_hopper(path) -> Hopper:
+    """The hopper in ``path``: a hopper file (``.toml`` read as TOML, anything else as JSON) or a hopper folder.
+    A missing path raises FileNotFoundError; a malformed file, or a folder's hopper file that does not match its
+    manifest, raises ValueError naming the file (and the field)."""
+    path = Path(path)
+    folder = None
+    if path.is_dir():
+        folder, path = path, path / FOLDER_FILE
+        if not path.is_file():
+            raise ValueError(f"hopper folder {folder} has no {FOLDER_FILE}")
+    elif not path.is_file():
+        raise FileNotFoundError(f"no such hopper file or folder: {path}")
+    source = f"hopper file {path}"
+    if path.suffix.lower() == ".toml":
+        try:
+            document = tomllib.loads(path.read_text())
+        except UnicodeDecodeError as error:
+            raise ValueError(f"{source} is not TOML: not UTF-8 text ({error.reason} at byte {error.start})") from None
+        except tomllib.TOMLDecodeError as error:
+            raise ValueError(f"{source} is not valid TOML: {error}") from None
+    else:
+        document = read_json(path, "hopper file")
+    digest = sha256(path)
+    if folder is not None:
+        expected = manifest_entries(folder).get(path.name)
+        if expected is not None and expected != digest:
+            raise ValueError(f"{source} does not match its SHA-256 in {folder / MANIFEST} (expected "
+                             f"{expected[:16]}..., got {digest[:16]}...): it was changed after the folder was written")
+    params, name = hopper_from_dict(document, source, path.stem if folder is None else folder.name)
+    return Hopper(params, name, digest, path, folder)
+
+
+def hopper_document(hopper: Hopper) -> dict:
+    """The JSON document ``save_hopper`` writes: the format, the name and every parameter."""
+    return {"format": HOPPER_FORMAT, "name": hopper.name, **asdict(hopper.params)}
+
+
+def save_hopper(hopper: Hopper, path) -> Hopper:
+    """Write ``hopper`` as a JSON hopper file, atomically, and return it as read back from ``path``. ``path`` is a
+    file name ending in .json, or an existing folder, which gets ``hopper.json`` (and its manifest entry, when it
+    has a manifest)."""
+    path = Path(path)
+    if path.is_dir():
+        file = path / FOLDER_FILE
+    elif path.suffix.lower() == ".json":
+        file = path
+    else:
+        raise ValueError(f"save_hopper writes JSON: give a file name ending in .json or a folder, got {str(path)!r}")
+    with atomic_write(file, "w") as f:
+        json.dump(hopper_document(hopper), f, indent=2)
+        f.write("\n")
+    record_digest(file)
+    return load_hopper(path)
+
+
+def make_hopper_folder(hopper: Hopper, folder) -> Hopper:
+    """Make ``folder`` a hopper folder for ``hopper``: ``hopper.json`` and a manifest listing it (other entries of
+    an existing manifest are kept). Trainers then write weights files into it and call
+    ``drakeslip.jobs.files.record_digest`` on each. Returns the hopper as loaded from the folder."""
+    folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        raise ValueError(f"cannot make hopper folder {folder}: it is a file")
+    folder.mkdir(parents=True, exist_ok=True)
+    manifest = folder / MANIFEST
+    if not manifest.is_file():
+        with atomic_write(manifest, "w"):
+            pass
+    return save_hopper(hopper, folder)
+
+
+def hopper_from_record(record, where: str) -> Hopper:
+    """The hopper a results or plan file's record (``Hopper.to_record``) describes; a bad record raises ValueError
+    naming ``where`` and the field."""
+    if not isinstance(record, dict):
+        raise ValueError(f"{where} must be an object, got {type(record).__name__}")
+    for key in ("name", "params"):
+        if key not in record:
+            raise ValueError(f"{where} is missing the field {key!r}")
+    name, params, digest = record["name"], record["params"], record.get("sha256")
+    if not isinstance(name, str) or not name.strip():
+        raise ValueError(f"{where}.name must be a non-empty string, got {name!r}")
+    if digest is not None and not isinstance(digest, str):
+        raise ValueError(f"{where}.sha256 must be a string or null, got {digest!r}")
+    if not isinstance(params, dict):
+        raise ValueError(f"{where}.params must be an object, got {type(params).__name__}")
+    unknown = [key for key in params if key not in PARAM_FIELDS]
+    if unknown:
+        raise ValueError(f"{where}.params: unknown field {unknown[0]!r} (the fields are {', '.join(PARAM_FIELDS)})")
+    return Hopper(params_from_fields(params, f"{where}.params"), name, digest)
+
+
+def packaged_hoppers() -> list[str]:
+    """Names of the hopper files that ship with drakeslip (``--hopper NAME``)."""
+    return sorted(p.stem for p in PACKAGED.glob("*.json"))
+
+
+@functools.lru_cache(maxsize=None)
+def paper_hopper() -> Hopper:
+    """The paper's hopper (``SlipParams()``), from the packaged hopper file: the default everywhere."""
+    return load_hopper(PACKAGED / "paper.json")
+
+
+def hopper_argument(text: str) -> Hopper:
+    """An argument type: a hopper file or folder, or the name of a packaged hopper (``paper``); a bad one is one
+    line (argparse.ArgumentTypeError)."""
+    path = Path(text)
+    if not path.exists() and text in packaged_hoppers():
+        path = PACKAGED / f"{text}.json"
+    try:
+        return load_hopper(path)
+    except FileNotFoundError:
+        raise argparse.ArgumentTypeError(f"no such hopper file or folder: {text!r} (packaged hoppers: "
+                                         f"{', '.join(packaged_hoppers())})") from None
+    except (ValueError, OSError) as error:
+        raise argparse.ArgumentTypeError(first_line(error)) from None

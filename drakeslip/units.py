@@ -1,0 +1,49 @@
+"""A hopper's units relative to the paper's: what turns a quantity tuned for the paper's hopper into the same
+quantity for another SLIP.
+
+The paper's hopper (``SlipParams()``: 7 kg, L0 0.5 m, 3200 N/m, g 9.81 m/s^2) is the reference. Two hoppers whose
+dimensionless stiffness ``k L0 / (m g)`` and friction agree move alike (Froude similarity): lengths scale with the
+leg, speeds with ``sqrt(g L0)``, times with ``sqrt(L0 / g)``. Everything hopper-dependent is written as "the paper's
+value x a factor", so for the paper's hopper every factor is exactly 1.0 and every product is the paper's value to
+the bit.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from drakeslip.params import SlipParams
+
+PAPER = SlipParams()
+
+
+@dataclass(frozen=True)
+class HopperUnits:
+    """Scale factors of a hopper relative to the paper's, and its dimensionless stiffness.
+
+    length: L0 / 0.5 m (terrain lengths and heights, positions, leg lengths); speed: sqrt(g L0 / (9.81 * 0.5))
+    (forward speeds, Froude similarity); time: length / speed; mass: m / 7 kg; stiffness: k L0 / (m g),
+    dimensionless (23.3 for the paper's hopper; it and the friction are what similarity cannot scale away).
+    """
+
+    length: float
+    speed: float
+    time: float
+    mass: float
+    stiffness: float
+
+    @classmethod
+    def of(cls, params: SlipParams) -> "HopperUnits":
+        if not isinstance(params, SlipParams):
+            raise TypeError(f"HopperUnits.of takes SlipParams, got {type(params).__name__}")
+        length = params.leg_length / PAPER.leg_length
+        # g L0 over the paper's g L0: both products are one rounding of the same factors for the paper's hopper,
+        # so the ratio, and its square root, is exactly 1.0 there.
+        speed = math.sqrt((params.gravity * params.leg_length) / (PAPER.gravity * PAPER.leg_length))
+        return cls(length=length, speed=speed, time=length / speed, mass=params.mass / PAPER.mass,
+                   stiffness=dimensionless_stiffness(params))
+
+
+def dimensionless_stiffness(params: SlipParams) -> float:
+    """k L0 / (m g): the spring's force at a full leg's compression in body weights."""
+    return params.stiffness * params.leg_length / (params.mass * params.gravity)
