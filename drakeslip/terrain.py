@@ -11,9 +11,11 @@ from drakeslip.params import check_number
 
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
 WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
-WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells)
-# Heights that differ by no more than this are one level: a sensed height map is noisy, while the terrains here
-# change level by 5 cm or more (a step) or 1 m (a ditch).
+WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells); another hopper's is this in its lengths
+# Heights that differ by no more than this are one level: a sensed height map is noisy (the realistic noise
+# profile's 1 cm per cell, drakeslip.noise), while the terrains here change level by 5 cm or more (a step) or 1 m
+# (a ditch). It is a property of the map and its sensor, not of the hopper, so it stays 2 cm for every hopper; a
+# level change under 2 cm is no obstacle to a hopper whose leg is 0.3 m or longer.
 LEVEL_TOLERANCE = 0.02
 
 
@@ -124,10 +126,11 @@ class Terrain:
         idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
         return self.heights[idx].copy(), self.x0 + first * self.cell
 
-    def perceived(self, x_body: float) -> "Terrain":
-        """What the robot sees with its body at ``x_body``: the perception window as a Terrain of its own, known
-        only up to its last cell (``extends_flat=False``)."""
-        heights, x_start = self.window(x_body)
+    def perceived(self, x_body: float, ahead: float = WINDOW_AHEAD, behind: float = WINDOW_BEHIND) -> "Terrain":
+        """What the robot sees with its body at ``x_body``: the perception window (``ahead`` and ``behind`` the
+        body [m]; the paper's hopper's by default, ``HopperUnits.window`` for another) as a Terrain of its own,
+        known only up to its last cell (``extends_flat=False``)."""
+        heights, x_start = self.window(x_body, ahead, behind)
         return Terrain(heights, self.cell, x_start, self.ditch_height, extends_flat=False)
 
     def to_dict(self) -> dict:
