@@ -10,6 +10,7 @@ from drakeslip.bounds import CELL, MAX_WINDOW_CELLS, POSITION, TERRAIN_START
 from drakeslip.params import check_number
 
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
+DITCH_WIDTH = (0.2, 0.6)   # [m] the range of the ditch and mixed families' ditch widths
 WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
 WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells); another hopper's is this in its lengths
 # Heights that differ by no more than this are one level: a sensed height map is noisy (the realistic noise
@@ -163,7 +164,7 @@ def _cells(length: float, cell: float) -> int:
 
 
 def ditch_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
-                ditch_width=(0.2, 0.6), island_length=(0.4, 1.5)) -> Terrain:
+                ditch_width=DITCH_WIDTH, island_length=(0.4, 1.5)) -> Terrain:
     """Ground at 0 with ditches (holes at DITCH_HEIGHT) of width 0.2-0.6 m between islands of 0.4-1.5 m;
     flat for x < ``flat_until``. Widths are whole cells."""
     rng = np.random.default_rng(seed)
@@ -197,13 +198,14 @@ def step_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0
     return Terrain(heights, cell, x0)
 
 
-def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0) -> Terrain:
-    """Steps and ditches on one terrain: a step world with some islands cut by ditches."""
+def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
+                ditch_width=DITCH_WIDTH) -> Terrain:
+    """Steps and ditches on one terrain: a step world with some islands cut by ditches ``ditch_width`` wide."""
     rng = np.random.default_rng(seed)
     base = step_world(seed, x0, x_end, cell, flat_until).heights.copy()
     i = _cells(flat_until - x0, cell) + _cells(rng.uniform(0.4, 1.5), cell)
     while i < base.size:
-        w = _cells(rng.uniform(0.2, 0.6), cell)
+        w = _cells(rng.uniform(*ditch_width), cell)
         base[i:i + w] = DITCH_HEIGHT
         i += w + _cells(rng.uniform(0.8, 2.5), cell)
     return Terrain(base, cell, x0)

@@ -19,6 +19,10 @@ physics:
 * terrain heights (step changes, the level band): the paper's times the length factor times the ratio of the
   hopper's highest start above its leg length to the paper's (at most 1): the height a hopper can climb and drop
   without bottoming out is what its start keeps above L0.
+* ditch widths: the paper's times the length factor times the ratio of the hopper's stride to the paper's (at most
+  1), the stride being the median over the suite's starts of the longest distance between the footholds of two
+  hops on flat ground, in leg lengths (``stride``): a softer or more slippery hopper covers less ground a hop
+  (kd 10: about half the paper's), and a ditch is an obstacle by how much of a hop it takes.
 
 The terrains are the paper's draws (same seeds) scaled, so the cases of two hoppers correspond one to one; for the
 paper's hopper every factor is exactly 1.0 and the suite equals ``make_suite``'s. A suite records its hopper
@@ -30,10 +34,14 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from drakeslip import ApexState, SlipParams, Terrain
+import functools
+
+import numpy as np
+
+from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.hopper_file import Hopper, paper_hopper
 from drakeslip.params import check_number
-from drakeslip.terrain import TERRAIN_FAMILIES
+from drakeslip.terrain import DITCH_WIDTH, TERRAIN_FAMILIES
 from drakeslip.terrain_file import gaps_of, load_terrain, terrain_with_gaps
 from drakeslip.units import PAPER, units_of
 from planners.formats.suite import (PAPER_GOAL_X, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS, START_X, Case,
@@ -41,18 +49,21 @@ from planners.formats.suite import (PAPER_GOAL_X, PAPER_HEIGHTS, PAPER_SPEEDS, P
 
 PROFILE_SUFFIXES = (".csv", ".txt")   # the files of a folder of profiles that are read
 STANDING_HEIGHT = 1.05   # [leg lengths] the lowest start apex above the ground a drawn suite gives
+STRIDE_ANGLES = 41       # leg angles across the friction cone tried at each hop of ``stride``
 
 
 @dataclass(frozen=True)
 class SuiteScales:
     """What multiplies the paper's numbers in a suite drawn for a hopper (see the module doc): ``length`` (terrain
     lengths, the cells, start x, goal), ``speed`` (start speeds), ``terrain_height`` (terrain heights) and
-    ``start_heights`` (each of the paper's start heights above the ground, in its order)."""
+    ``start_heights`` (each of the paper's start heights above the ground, in its order) and ``ditch_width``
+    (ditch widths)."""
 
     length: float
     speed: float
     terrain_height: float
     start_heights: tuple
+    ditch_width: float
 
 
 def stroke(params: SlipParams) -> float:
@@ -80,8 +91,28 @@ def start_height_factor(params: SlipParams, height: float) -> float:
     return min(1.0, max(mine, STANDING_HEIGHT) / paper)
 
 
-def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS) -> SuiteScales:
-    """The factors of a suite drawn for the hopper ``params`` from the paper's start ``heights`` [m] (module doc)."""
+@functools.lru_cache(maxsize=64)
+def stride(params: SlipParams, starts: tuple) -> float:
+    """The median over ``starts`` ((height above the ground [m], speed [m/s]) apexes) of the longest distance
+    [leg lengths] between the footholds of two hops on flat ground, each hop's leg angle one of STRIDE_ANGLES
+    across the friction cone, the second hop keeping a forward speed."""
+    leg = params.leg_length
+    ground = Terrain.flat(0.0, cell=0.1 * leg, x0=-5.0 * leg, length=60.0 * leg)
+    angles = np.linspace(-0.99, 0.99, STRIDE_ANGLES) * math.atan(params.friction)
+    longest = []
+    for height, speed in starts:
+        first = step_batch((0.0, height, speed), angles, ground, params)
+        ok = np.flatnonzero(first.ok)
+        apexes = np.repeat(np.column_stack([first.next_x, first.next_z, first.next_xdot])[ok], angles.size, axis=0)
+        second = step_batch(apexes, np.tile(angles, ok.size), ground, params)
+        reach = np.where(second.ok, second.touchdown_x - np.repeat(first.touchdown_x[ok], angles.size), 0.0)
+        longest.append(float(reach.max(initial=0.0)) / leg)
+    return float(np.median(longest))
+
+
+def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS, speeds=PAPER_SPEEDS) -> SuiteScales:
+    """The factors of a suite drawn for the hopper ``params`` from the paper's start ``heights`` [m] and
+    ``speeds`` [m/s] (module doc)."""
     units = units_of(params)
     factors = tuple(start_height_factor(params, z) for z in heights)
     top = max(range(len(heights)), key=lambda i: heights[i])
@@ -89,12 +120,21 @@ def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS) -> SuiteScales:
     climb = min(1.0, (paper_top * factors[top] - 1.0) / (paper_top - 1.0)) if paper_top > 1.0 else 1.0
     speed = (units.speed * min(1.0, math.sqrt(units.stiffness / units_of(PAPER).stiffness))
              * min(1.0, math.atan(params.friction) / math.atan(PAPER.friction)))
-    return SuiteScales(units.length, speed, units.length * climb, factors)
+    mine = tuple((z * units.length * f, v * speed) for z, f in zip(heights, factors) for v in speeds)
+    papers = tuple((z, v) for z in heights for v in speeds)
+    ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
+    return SuiteScales(units.length, speed, units.length * climb, factors, units.length * ditch)
 
 
-def hopper_terrain(terrain: Terrain, scales: SuiteScales) -> Terrain:
-    """A paper terrain for the hopper of ``scales``: lengths times ``scales.length``, heights times
-    ``scales.terrain_height``, ditches kept ditches (``drakeslip.terrain_file.terrain_with_gaps``)."""
+def hopper_terrain(family: str, seed: int, scales: SuiteScales) -> Terrain:
+    """The paper's terrain of ``family`` and ``seed`` for the hopper of ``scales`` (module doc): drawn with its
+    ditches ``scales.ditch_width / scales.length`` as wide (the same draws: every island and step where it was, the
+    ditches narrower), then lengths times ``scales.length``, heights times ``scales.terrain_height``, ditches kept
+    ditches (``drakeslip.terrain_file.terrain_with_gaps``)."""
+    ditches = {}
+    if family in ("ditch", "mixed"):
+        ditches["ditch_width"] = tuple(w * (scales.ditch_width / scales.length) for w in DITCH_WIDTH)
+    terrain = TERRAIN_FAMILIES[family](seed, **ditches)
     return terrain_with_gaps(gaps_of(terrain) * scales.terrain_height, terrain.cell * scales.length,
                              terrain.x0 * scales.length)
 
@@ -109,11 +149,11 @@ def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains:
     if family not in TERRAIN_FAMILIES:
         raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
     hopper = hopper or paper_hopper()
-    scales = suite_scales(hopper.params, heights)
+    scales = suite_scales(hopper.params, tuple(heights), tuple(speeds))
     start_x = START_X * scales.length
     cases = []
     for i in range(n_terrains):
-        terrain = hopper_terrain(TERRAIN_FAMILIES[family](seed + i), scales)
+        terrain = hopper_terrain(family, seed + i, scales)
         for v in speeds:
             for z, factor in zip(heights, scales.start_heights):
                 above = z * scales.length * factor

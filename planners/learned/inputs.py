@@ -76,7 +76,9 @@ def model_cell(units: HopperUnits) -> float:
 def relative_heights(heights, ditch, ground, units: HopperUnits) -> np.ndarray:
     """Heights relative to ``ground`` in the hopper's lengths, clipped to [HEIGHT_FLOOR, 1]: what the model and the
     re-ranker read. A ditch's floor counts at least as deep as the paper's ditches (DITCH_HEIGHT, -1 m, in the
-    hopper's lengths), so the paper's terrains scaled to a hopper encode as they do for the paper's hopper."""
+    hopper's lengths), so the paper's terrains scaled to a longer-legged hopper encode as they do for the paper's
+    hopper (for a shorter leg, a scaled terrain's ditches stay 1 m deep, deeper than the paper's in its lengths,
+    which matters only where the ground is below 0: the encoding is clipped at HEIGHT_FLOOR)."""
     floor = min(DITCH_HEIGHT * units.length, 0.0)
     heights = np.where(ditch, np.minimum(heights, floor), heights)
     return np.clip((heights - ground) / units.length, HEIGHT_FLOOR, 1.0)
@@ -95,8 +97,8 @@ def model_window(terrain: Terrain, x_body: float, units: HopperUnits):
     n = max(1, int(round((ahead + behind) / cell)))
     x_start = terrain.x0 + (math.floor((x_body - terrain.x0) / cell) - s0) * cell
     edges = x_start + np.arange(n + 1) * cell
-    first = terrain.index(edges[:-1])
-    last = terrain.index(edges[1:] - SAME_CELL * min(cell, terrain.cell))   # a cell only touched is not in it
+    touch = SAME_CELL * min(cell, terrain.cell)   # a terrain cell a model cell only touches is not under it
+    first, last = terrain.index(edges[:-1] + touch), terrain.index(edges[1:] - touch)
     span = np.arange(int((last - first).max()) + 1)
     cells = np.minimum(first[:, None] + span[None, :], last[:, None])     # every terrain cell under a model cell
     under = terrain.heights[cells]
