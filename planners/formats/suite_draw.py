@@ -19,10 +19,12 @@ physics:
 * terrain heights (step changes, the level band): the paper's times the length factor times the ratio of the
   hopper's highest start above its leg length to the paper's (at most 1): the height a hopper can climb and drop
   without bottoming out is what its start keeps above L0.
-* ditch widths: the paper's times the length factor times the ratio of the hopper's stride to the paper's (at most
-  1), the stride being the median over the suite's starts of the longest distance between the footholds of two
-  hops on flat ground, in leg lengths (``stride``): a softer or more slippery hopper covers less ground a hop
-  (kd 10: about half the paper's), and a ditch is an obstacle by how much of a hop it takes.
+* ditch widths and the course (from the start to the goal): the paper's times the length factor times the ratio
+  of the hopper's stride to the paper's (at most 1), the stride being the median over the suite's starts of the
+  longest distance between the footholds of two hops on flat ground, in leg lengths (``stride``). A softer or more
+  slippery hopper covers less ground a hop (kd 10: about half the paper's); a ditch is an obstacle by how much of
+  a hop it takes, and a case asks for about as many hops as the paper's. What a foot lands on (islands, steps'
+  segments, the cells) and the flat run-up stay in leg lengths.
 
 The terrains are the paper's draws (same seeds) scaled, so the cases of two hoppers correspond one to one; for the
 paper's hopper every factor is exactly 1.0 and the suite equals ``make_suite``'s. A suite records its hopper
@@ -56,14 +58,14 @@ STRIDE_ANGLES = 41       # leg angles across the friction cone tried at each hop
 class SuiteScales:
     """What multiplies the paper's numbers in a suite drawn for a hopper (see the module doc): ``length`` (terrain
     lengths, the cells, start x, goal), ``speed`` (start speeds), ``terrain_height`` (terrain heights) and
-    ``start_heights`` (each of the paper's start heights above the ground, in its order) and ``ditch_width``
-    (ditch widths)."""
+    ``start_heights`` (each of the paper's start heights above the ground, in its order) and ``stride`` (ditch
+    widths and the course from the start to the goal)."""
 
     length: float
     speed: float
     terrain_height: float
     start_heights: tuple
-    ditch_width: float
+    stride: float
 
 
 def stroke(params: SlipParams) -> float:
@@ -126,14 +128,20 @@ def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS, speeds=PAPER_SPEEDS)
     return SuiteScales(units.length, speed, units.length * climb, factors, units.length * ditch)
 
 
+def course_end(start_x: float, goal_x: float, scales: SuiteScales) -> float:
+    """The goal for the hopper of ``scales`` starting at ``start_x`` [m]: the paper's course from START_X to
+    ``goal_x`` [m] times ``scales.stride``."""
+    return start_x + (goal_x - START_X) * scales.stride
+
+
 def hopper_terrain(family: str, seed: int, scales: SuiteScales) -> Terrain:
     """The paper's terrain of ``family`` and ``seed`` for the hopper of ``scales`` (module doc): drawn with its
-    ditches ``scales.ditch_width / scales.length`` as wide (the same draws: every island and step where it was, the
+    ditches ``scales.stride / scales.length`` as wide (the same draws: every island and step where it was, the
     ditches narrower), then lengths times ``scales.length``, heights times ``scales.terrain_height``, ditches kept
     ditches (``drakeslip.terrain_file.terrain_with_gaps``)."""
     ditches = {}
     if family in ("ditch", "mixed"):
-        ditches["ditch_width"] = tuple(w * (scales.ditch_width / scales.length) for w in DITCH_WIDTH)
+        ditches["ditch_width"] = tuple(w * (scales.stride / scales.length) for w in DITCH_WIDTH)
     terrain = TERRAIN_FAMILIES[family](seed, **ditches)
     return terrain_with_gaps(gaps_of(terrain) * scales.terrain_height, terrain.cell * scales.length,
                              terrain.x0 * scales.length)
@@ -159,7 +167,7 @@ def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains:
                 above = z * scales.length * factor
                 apex = ApexState(start_x, above + terrain.height_at(start_x), v * scales.speed)
                 cases.append(Case(f"{family}-{seed + i}-v{apex.xdot:g}-z{above:g}", terrain, apex))
-    return suite_for(hopper, name or f"{family}-{seed}", goal_x * scales.length, friction, cases)
+    return suite_for(hopper, name or f"{family}-{seed}", course_end(start_x, goal_x, scales), friction, cases)
 
 
 def suite_from_terrains(profiles, hopper: Hopper | None = None, speeds=None, heights=None,
@@ -177,7 +185,7 @@ def suite_from_terrains(profiles, hopper: Hopper | None = None, speeds=None, hei
     heights = [check_number(z, "start height", positive=True)
                for z in (heights or [z * scales.length * f for z, f in zip(PAPER_HEIGHTS, scales.start_heights)])]
     start_x = START_X * scales.length if start_x is None else check_number(start_x, "start_x")
-    goal_x = PAPER_GOAL_X * scales.length if goal_x is None else check_number(goal_x, "goal_x")
+    goal_x = course_end(start_x, PAPER_GOAL_X, scales) if goal_x is None else check_number(goal_x, "goal_x")
     if not goal_x > start_x:
         raise ValueError(f"goal_x={goal_x:g} must lie ahead of start_x={start_x:g}")
     cases, stems = [], {}
