@@ -24,7 +24,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-corners", action="store_true", help="only the random hoppers")
     ap.add_argument("--suite-seed", type=cli.non_negative_int, default=35000, help="terrain seed of the suites")
     ap.add_argument("--every", type=cli.positive_int, default=3, help="every K-th case of each 150-case suite")
-    ap.add_argument("--families", type=cli.names, default="", help="more families for step and lstm-guided")
+    ap.add_argument("--families", type=cli.names, default=None,
+                    help="more terrain families, comma-separated, for step and lstm-guided (e.g. step,mixed)")
     ap.add_argument("--backend", choices=("drake", "fast"), default="drake", help="what executes the plans")
     ap.add_argument("--out", type=cli.output_folder, required=True, help="folder of the results JSON files")
     ap.add_argument("--quiet", action="store_true", help="no progress bars")
@@ -51,13 +52,14 @@ def main(argv=None) -> int:
             results = evaluate_hopper(h, family, args.suite_seed, labels, args.every, args.backend, executor,
                                       cache_path=f"{path}.cases.jsonl", progress=not args.quiet)
             write_json(path, results)
-            bars = {what.split(" ")[0]: (bar, passed) for what, _, bar, passed in checks(results)} \
-                if family == "ditch" else {}
+            found = checks(results) if family == "ditch" else []
+            bars = {label: (bar, passed) for label in labels for what, _, bar, passed in found
+                    if what.startswith(f"{label} (")}
             for label, r in results["planners"].items():
                 bar, passed = bars.get(label, ("", None))
                 rows.append(f"| {h.name}: {describe(h)} | {family} | {label} | {100 * r['success_rate']:.1f} | "
                             f"{r['ode_calls_mean']:.0f} | {bar} | {'' if passed is None else passed} |")
-            for what, value, bar, passed in checks(results) if family == "ditch" else []:
+            for what, value, bar, passed in found:
                 ok &= passed
                 if what.startswith("lstm-guided "):
                     rows.append(f"| {h.name} | ditch | {what} | {value:.2f} | | {bar} | {passed} |")
