@@ -25,7 +25,9 @@ error (reported before any work).
 from __future__ import annotations
 
 import json
+import os
 import shlex
+import signal
 import subprocess
 import sys
 import time
@@ -117,12 +119,25 @@ def shown(command: list[str]) -> str:
 
 
 def run_step(command: list[str]) -> int:
-    """Run examples/COMMAND in a process of its own, printing it first and its time after; its exit status."""
+    """Run examples/COMMAND in a process of its own, printing it first and its time after; its exit status. On
+    Ctrl-C the step ends as its script does, saying in one line what it saved, and so does this process."""
     print("$ " + shown(command), flush=True)
     t0 = time.perf_counter()
-    code = subprocess.call([sys.executable, str(EXAMPLES / command[0]), *command[1:]])
+    step = subprocess.Popen([sys.executable, str(EXAMPLES / command[0]), *command[1:]])
+    try:
+        code = step.wait()
+    except KeyboardInterrupt:
+        step.send_signal(signal.SIGINT)  # a Ctrl-C reached it too; a SIGINT sent to this process alone is passed on
+        step.wait()
+        end_by_sigint()
     print(f"  ({time.perf_counter() - t0:.0f} s, exit status {code})", flush=True)
     return code
+
+
+def end_by_sigint() -> None:
+    """End as an interrupted program does (status 130 in a shell), with no line of this process's own."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    os.kill(os.getpid(), signal.SIGINT)
 
 
 def main(argv=None) -> int:
@@ -147,20 +162,25 @@ def main(argv=None) -> int:
         ap.error(str(error))
     cli.announce(argv)
     rounds, t0 = len(args.terrains), time.perf_counter()
-    for r in range(rounds):
-        model, done = work / f"round{r}.pt", work / f"round{r}.done"
-        if done.exists() and model.exists():
-            print(f"round {r} ({rounds} in all): done ({model})", flush=True)
-            continue
-        print(f"round {r} ({rounds} in all): " + ("the expert's rollouts" if r == 0 else "DAgger"), flush=True)
-        for command in round_commands(args, r, device):
-            code = run_step(command)
-            if code != cli.OK:
-                print(f"{ap.prog}: round {r} failed: {command[0]} exited with status {code}; rerun to resume",
-                      file=sys.stderr)
-                return cli.FAILED
-        with atomic_write(done, "w") as f:
-            f.write(f"round {r} finished\n")
+    try:
+        for r in range(rounds):
+            model, done = work / f"round{r}.pt", work / f"round{r}.done"
+            if done.exists() and model.exists():
+                print(f"round {r} ({rounds} in all): done ({model})", flush=True)
+                continue
+            print(f"round {r} ({rounds} in all): " + ("the expert's rollouts" if r == 0 else "DAgger"), flush=True)
+            for command in round_commands(args, r, device):
+                code = run_step(command)
+                if code != cli.OK:
+                    print(f"{ap.prog}: round {r} failed: {command[0]} exited with status {code}; rerun to resume",
+                          file=sys.stderr)
+                    return cli.FAILED
+            with atomic_write(done, "w") as f:
+                f.write(f"round {r} finished\n")
+    except KeyboardInterrupt:  # between two steps (during one, the step says what it saved)
+        print(f"{ap.prog}: interrupted: the finished rounds are kept in {work}; rerun the same command to resume",
+              file=sys.stderr)
+        end_by_sigint()
     with atomic_write(args.out) as f:
         f.write((work / f"round{rounds - 1}.pt").read_bytes())
     record_digest(args.out)

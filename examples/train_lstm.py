@@ -4,7 +4,7 @@
 
 Logs train/validation loss and top-1 / within-1-cell accuracy each epoch, checkpoints every epoch (rerun
 the same command to resume) and writes the best weights to --out (default: the committed
-planners/weights/lstm.pt, the paper's model that planners.make("lstm@paper") loads); the SHA256SUMS manifest of
+planners/weights/lstm_paper.pt, the paper's model that planners.make("lstm@paper") loads); the SHA256SUMS manifest of
 --out's folder, if it has one, gets the file's new digest. Training runs on --device (default: CUDA when torch
 sees a GPU, else the CPU).
 
