@@ -8,8 +8,17 @@ therefore reads
     (xdot, z - h(x_L), x_L - x)      speed, drop to the terrain at the desired foothold, foothold offset
 
 which on flat ground are the paper's inputs (xdot, z, x_L) and also tell it the terrain height at the desired
-foothold. Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic;
-torch is needed only to read and write the weights file (training is controller_training.py).
+foothold.
+
+The touchdown depends on the hopper only through L0 and g, and in units of L0 and sqrt(g L0) it is the same function
+for every hopper: x_L / L0 = sin(theta) + (xdot / sqrt(g L0)) sqrt(2 (drop / L0 - cos(theta))). So one network
+serves every hopper: ``for_params(params)`` is the controller for another hopper, which feeds the network its
+speed, drop and offset in the units of the hopper the network was trained for (speed over the speed factor, lengths
+over the length factor) and polishes with the hopper's own L0 and g. For the trained hopper the factors are exactly
+1.0 and the angles are the trained controller's to the bit.
+
+Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is needed
+only to read and write the weights file (training is controller_training.py).
 
 ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
 ``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
@@ -20,6 +29,7 @@ survives only if the executed leg angle is the planned one.
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
@@ -58,8 +68,12 @@ class StepLengthController:
         """``weights``: the network's parameters by name, ``hidden.K.weight`` (out, in), ``hidden.K.bias`` for each
         hidden layer K and ``head.weight``, ``head.bias`` (a torch state dict, or arrays)."""
         self.config = config
-        self.params = params
+        self.params = params          # the hopper the network was trained for (saved with the weights)
         self.refine = refine
+        # the hopper it aims for: its leg length and gravity, and its speed and length over the trained hopper's
+        self.leg_length, self.gravity = params.leg_length, params.gravity
+        self.feature_scale = None     # None: the trained hopper (features as they are)
+        self.views = {(params.leg_length, params.gravity): self}   # (leg length, gravity) -> its controller
         self.feature_mean = np.asarray(feature_mean, dtype=np.float64)
         self.feature_std = np.asarray(feature_std, dtype=np.float64)
         arrays = {k: np.asarray(v, dtype=np.float64) for k, v in weights.items()}
@@ -75,8 +89,28 @@ class StepLengthController:
                         for k in range(config.layers)]
         self._head = (arrays["head.weight"].T.copy(), arrays["head.bias"].copy())
 
+    def for_params(self, params: SlipParams) -> "StepLengthController":
+        """The controller for the hopper ``params``: the same network, its inputs taken in the trained hopper's units
+        (see the module doc) and its polish run with ``params``' leg length and gravity. Itself for a hopper with the
+        trained leg length and gravity (the touchdown depends on nothing else); built once per hopper."""
+        if not isinstance(params, SlipParams):
+            raise TypeError(f"for_params takes SlipParams, got {type(params).__name__}")
+        key = (params.leg_length, params.gravity)
+        if key not in self.views:
+            view = copy.copy(self)
+            view.leg_length, view.gravity = key
+            trained = self.params
+            length = params.leg_length / trained.leg_length
+            speed = math.sqrt((params.gravity * params.leg_length) / (trained.gravity * trained.leg_length))
+            view.feature_scale = np.array([speed, length, length])
+            view.views = self.views
+            self.views[key] = view
+        return self.views[key]
+
     # ---- inference -----------------------------------------------------------------------------------
     def _forward(self, feats: np.ndarray) -> np.ndarray:
+        if self.feature_scale is not None:
+            feats = feats / self.feature_scale
         x = (feats - self.feature_mean) / self.feature_std
         for w, b in self._layers:
             x = np.tanh(x @ w + b)
@@ -99,8 +133,7 @@ class StepLengthController:
             from drakeslip.leg_aim import polish_angles  # compiled on first use: --help and imports stay light
 
             speed, drop, target = np.ascontiguousarray(feats.T)
-            theta = polish_angles(speed, drop, target, theta, self.params.leg_length, self.params.gravity,
-                                  self.config.max_angle)
+            theta = polish_angles(speed, drop, target, theta, self.leg_length, self.gravity, self.config.max_angle)
         return theta
 
     def leg_angle(self, apex, foothold_x: float, terrain: Terrain, refine: bool | None = None) -> float:
@@ -154,9 +187,3 @@ class StepLengthController:
     def load_default(cls, refine: bool = True) -> "StepLengthController":
         """The committed weights (drakeslip/weights/controller.pt), trained by examples/train_controller.py."""
         return cls.load(DEFAULT_WEIGHTS, refine=refine)
-
-    def check_params(self, params: SlipParams) -> None:
-        """The touchdown point depends on the leg length and gravity only; other parameters may differ."""
-        if (params.leg_length, params.gravity) != (self.params.leg_length, self.params.gravity):
-            raise ValueError(f"controller was trained for leg_length={self.params.leg_length}, "
-                             f"gravity={self.params.gravity}; got {params}")

@@ -106,7 +106,7 @@ class _Commands:
         if self.footholds is not None:
             if controller is None:
                 raise ValueError("footholds are aimed at by a controller: pass controller=StepLengthController")
-            controller.check_params(params)
+            controller = controller.for_params(params)   # aims with the hopper's leg length and gravity
             if not all(math.isfinite(x) for x in self.footholds):
                 raise ValueError(f"footholds must be finite, got {self.footholds}")
         self.controller, self.terrain = controller, sensed_terrain

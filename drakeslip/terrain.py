@@ -10,10 +10,13 @@ from drakeslip.bounds import CELL, MAX_WINDOW_CELLS, POSITION, TERRAIN_START
 from drakeslip.params import check_number
 
 DITCH_HEIGHT = -1.0   # cells at or below this height are holes (ditches), see Terrain
+DITCH_WIDTH = (0.2, 0.6)   # [m] the range of the ditch and mixed families' ditch widths
 WINDOW_AHEAD = 8.0    # the paper's perception window: 8 m ahead of the body ...
-WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells)
-# Heights that differ by no more than this are one level: a sensed height map is noisy, while the terrains here
-# change level by 5 cm or more (a step) or 1 m (a ditch).
+WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells); another hopper's is this in its lengths
+# Heights that differ by no more than this are one level: a sensed height map is noisy (the realistic noise
+# profile's 1 cm per cell, drakeslip.noise), while the terrains here change level by 5 cm or more (a step) or 1 m
+# (a ditch). It is a property of the map and its sensor, not of the hopper, so it stays 2 cm for every hopper; a
+# level change under 2 cm is no obstacle to a hopper whose leg is 0.3 m or longer.
 LEVEL_TOLERANCE = 0.02
 
 
@@ -124,10 +127,11 @@ class Terrain:
         idx = np.clip(np.arange(first, first + n), 0, self.heights.size - 1)
         return self.heights[idx].copy(), self.x0 + first * self.cell
 
-    def perceived(self, x_body: float) -> "Terrain":
-        """What the robot sees with its body at ``x_body``: the perception window as a Terrain of its own, known
-        only up to its last cell (``extends_flat=False``)."""
-        heights, x_start = self.window(x_body)
+    def perceived(self, x_body: float, ahead: float = WINDOW_AHEAD, behind: float = WINDOW_BEHIND) -> "Terrain":
+        """What the robot sees with its body at ``x_body``: the perception window (``ahead`` and ``behind`` the
+        body [m]; the paper's hopper's by default, ``HopperUnits.window`` for another) as a Terrain of its own,
+        known only up to its last cell (``extends_flat=False``)."""
+        heights, x_start = self.window(x_body, ahead, behind)
         return Terrain(heights, self.cell, x_start, self.ditch_height, extends_flat=False)
 
     def to_dict(self) -> dict:
@@ -160,7 +164,7 @@ def _cells(length: float, cell: float) -> int:
 
 
 def ditch_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
-                ditch_width=(0.2, 0.6), island_length=(0.4, 1.5)) -> Terrain:
+                ditch_width=DITCH_WIDTH, island_length=(0.4, 1.5)) -> Terrain:
     """Ground at 0 with ditches (holes at DITCH_HEIGHT) of width 0.2-0.6 m between islands of 0.4-1.5 m;
     flat for x < ``flat_until``. Widths are whole cells."""
     rng = np.random.default_rng(seed)
@@ -194,13 +198,14 @@ def step_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0
     return Terrain(heights, cell, x0)
 
 
-def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0) -> Terrain:
-    """Steps and ditches on one terrain: a step world with some islands cut by ditches."""
+def mixed_world(seed: int, x0: float = -3.0, x_end: float = 20.0, cell: float = 0.1, flat_until: float = 1.0,
+                ditch_width=DITCH_WIDTH) -> Terrain:
+    """Steps and ditches on one terrain: a step world with some islands cut by ditches ``ditch_width`` wide."""
     rng = np.random.default_rng(seed)
     base = step_world(seed, x0, x_end, cell, flat_until).heights.copy()
     i = _cells(flat_until - x0, cell) + _cells(rng.uniform(0.4, 1.5), cell)
     while i < base.size:
-        w = _cells(rng.uniform(0.2, 0.6), cell)
+        w = _cells(rng.uniform(*ditch_width), cell)
         base[i:i + w] = DITCH_HEIGHT
         i += w + _cells(rng.uniform(0.8, 2.5), cell)
     return Terrain(base, cell, x0)

@@ -9,10 +9,12 @@ the bit.
 """
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 from drakeslip.params import SlipParams
+from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
 
 PAPER = SlipParams()
 
@@ -42,6 +44,26 @@ class HopperUnits:
         speed = math.sqrt((params.gravity * params.leg_length) / (PAPER.gravity * PAPER.leg_length))
         return cls(length=length, speed=speed, time=length / speed, mass=params.mass / PAPER.mass,
                    stiffness=dimensionless_stiffness(params))
+
+    @property
+    def window(self) -> tuple[float, float]:
+        """The perception window [m] ahead of and behind the body: the paper's (8 m, 3 m) in this hopper's lengths
+        (``Terrain.perceived(x, *units.window)``)."""
+        return WINDOW_AHEAD * self.length, WINDOW_BEHIND * self.length
+
+    def length_or(self, value: float | None, paper: float) -> float:
+        """A length option: ``value`` [m] when given, else the paper's ``paper`` [m] in this hopper's lengths."""
+        return paper * self.length if value is None else value
+
+    def speed_or(self, value: float | None, paper: float) -> float:
+        """A speed option: ``value`` [m/s] when given, else the paper's ``paper`` [m/s] in this hopper's speeds."""
+        return paper * self.speed if value is None else value
+
+
+@functools.lru_cache(maxsize=256)
+def units_of(params: SlipParams) -> HopperUnits:
+    """``HopperUnits.of(params)``, computed once per hopper (planners ask for it at every node)."""
+    return HopperUnits.of(params)
 
 
 def dimensionless_stiffness(params: SlipParams) -> float:

@@ -14,9 +14,11 @@ from drakeslip.bounds import HORIZON, POSITION
 from drakeslip.params import check_count, check_number
 from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
+from drakeslip.units import HopperUnits, units_of
 
 # The plan aims this far short of the window's end when the goal lies beyond the window: the last footholds
-# must still be inside what the robot can see, and the hop after them needs ground under it too.
+# must still be inside what the robot can see, and the hop after them needs ground under it too. [m] for the
+# paper's hopper; a planner uses it in its hopper's lengths (``HopperUnits``), as it does every setting below.
 TARGET_MARGIN = 1.0
 
 
@@ -108,22 +110,29 @@ class Problem:
     terrain: Terrain
     goal_x: float
     params: SlipParams
+    units: HopperUnits  # the hopper's units: what turns a setting tuned for the paper's hopper into this one's
     window_end: float   # footholds must lie before this x: the horizon, or where the terrain's knowledge ends
     target_x: float     # a sequence is complete when a foothold passes this x
     deadline: float     # time.perf_counter() value at which the planner must stop
 
 
 class Planner(ABC):
-    """Base class: ``plan(apex, terrain, goal_x, params) -> Plan``. Subclasses implement ``_plan``."""
+    """Base class: ``plan(apex, terrain, goal_x, params) -> Plan``. Subclasses implement ``_plan``.
+
+    A planner plans for the hopper ``params`` it is given (default: the paper's). Every setting that depends on the
+    hopper is the paper's value in the hopper's units (``drakeslip.units.HopperUnits``: lengths times its length
+    factor, speeds times its speed factor), so a planner does the same for every hopper and, for the paper's,
+    exactly what its settings say. Options left at None take these values; an option given is in SI units and is
+    used as it is, for any hopper. ``horizon``: how far ahead of the body footholds may lie (default the paper's
+    perception window, 8 m, in the hopper's lengths); the plan aims ``TARGET_MARGIN`` (1 m in the hopper's lengths)
+    short of it when the goal lies beyond."""
 
     name = "planner"
 
     def __init__(self, max_nodes: int = Budget.max_nodes, max_ode_calls: int | None = Budget.max_ode_calls,
-                 max_time_s: float = Budget.max_time_s, horizon: float = WINDOW_AHEAD):
+                 max_time_s: float = Budget.max_time_s, horizon: float | None = None):
         self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
-        self.horizon = check_number(horizon, "horizon", bound=HORIZON)
-        if self.horizon <= TARGET_MARGIN:
-            raise ValueError(f"horizon must be a finite distance above {TARGET_MARGIN} m, got {horizon!r}")
+        self.horizon = None if horizon is None else check_number(horizon, "horizon", positive=True, bound=HORIZON)
 
     def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None) -> Plan:
         t0 = time.perf_counter()
@@ -145,10 +154,15 @@ class Planner(ABC):
         if apex.xdot <= 0:
             raise ValueError(f"apex xdot={apex.xdot} must be positive: the planners hop forward")
         goal_x = check_number(goal_x, "goal_x", bound=POSITION)
+        units = units_of(params)
+        horizon, margin = units.length_or(self.horizon, WINDOW_AHEAD), TARGET_MARGIN * units.length
+        if horizon <= margin:
+            raise ValueError(f"horizon must be a distance above the target margin, {margin:g} m for this hopper, "
+                             f"got {horizon!r}")
         # a map extends flat past its last cell; a perception window ends where the robot's knowledge does
-        window_end = min(apex.x + self.horizon, terrain.known_end)
-        target_x = min(goal_x, window_end - TARGET_MARGIN)
-        return Problem(apex, terrain, goal_x, params, window_end, target_x, t0 + self.budget.max_time_s)
+        window_end = min(apex.x + horizon, terrain.known_end)
+        target_x = min(goal_x, window_end - margin)
+        return Problem(apex, terrain, goal_x, params, units, window_end, target_x, t0 + self.budget.max_time_s)
 
     @abstractmethod
     def _plan(self, problem: Problem) -> Plan:

@@ -19,6 +19,7 @@ from drakeslip import ApexState, SlipParams
 from drakeslip.noise import NoiseProfile
 from drakeslip.rollout import BACKENDS, rollout
 from drakeslip.terrain import check_window
+from drakeslip.units import units_of
 
 EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
 MAX_HOPS = 60           # a case that has not reached the goal after this many hops fails ("hop cap")
@@ -75,7 +76,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
         apex_errors = None if noise.silent else noise.apex_errors(rng, k)
         angle_errors = None if noise.silent else noise.angle_errors(rng, k)
         seen = apex if noise.silent else ApexState(*(np.asarray(apex) + apex_errors[0]))
-        window = terrain.perceived(seen.x)
+        window = terrain.perceived(seen.x, *units_of(params).window)   # the hopper's view
         sensed = window if noise.silent else noise.perceived(window, rng, config.map_filter)
         try:
             plan = planner.plan(seen, sensed, aim_x, params)

@@ -9,6 +9,7 @@ import pytest
 import drakeslip as ds
 import planners
 from drakeslip.controller import StepLengthController
+from drakeslip.units import units_of
 from planners.formats.suite import make_suite
 from planners.search.robust import Robustness, Worlds
 from planners.search.tree import clear_of_edges
@@ -34,14 +35,16 @@ def reference_flight(rob, particles, foothold, controller, terrain, last):
         r = ds.step_batch(state, [angle], world, hopper)
         seen = r.touchdown_x - particles.shift[i]
         ends.append([r.next_x[0], r.next_z[0], r.next_xdot[0]])
-        robust &= bool(r.ok[0] and abs(r.touchdown_x[0] - foothold) <= rob.landing
-                       and r.next_xdot[0] >= rob.min_speed
+        robust &= bool(r.ok[0] and abs(r.touchdown_x[0] - foothold) <= particles.landing
+                       and r.next_xdot[0] >= particles.min_speed
                        and r.next_z[0] - terrain.height_at(r.next_x[0] - particles.shift[i]) >= particles.clearance
-                       and terrain.same_level(seen, foothold)[0] and clear_of_edges(terrain, seen, rob.edge_margin)[0])
+                       and terrain.same_level(seen, foothold)[0]
+                       and clear_of_edges(terrain, seen, particles.edge_margin)[0])
         if robust and last:
             follow = ds.step_batch(ends[-1], particles.fan, world, hopper)
-            good = (follow.ok & (follow.next_xdot >= rob.min_speed)
-                    & clear_of_edges(terrain, np.nan_to_num(follow.touchdown_x) - particles.shift[i], rob.edge_margin))
+            good = (follow.ok & (follow.next_xdot >= particles.min_speed)
+                    & clear_of_edges(terrain, np.nan_to_num(follow.touchdown_x) - particles.shift[i],
+                                     particles.edge_margin))
             robust &= int(good.sum()) >= rob.lookahead
     return robust, np.array(ends)
 
@@ -152,9 +155,9 @@ def test_robust_hops_keep_the_apex_a_leg_length_above_the_ground(controller):
 
 
 def test_only_the_last_robust_level_searches_the_fine_grid(controller):
-    settings = planners.make("step@robust", controller=controller).attempt_settings()
+    settings = planners.make("step@robust", controller=controller).attempt_settings(units_of(ds.SlipParams()))
     described = [(None if r is None else (r.sigmas, r.depth), spacing) for r, spacing in settings]
-    assert described == [((2.0, 2), None), ((2.0, 1), None), ((1.0, 1), None), ((1.0, 1), 0.01),
-                         (None, None), (None, 0.01)]
+    assert described == [((2.0, 2), 0.025), ((2.0, 1), 0.025), ((1.0, 1), 0.025), ((1.0, 1), 0.01),
+                         (None, 0.025), (None, 0.01)]
     with pytest.raises(ValueError, match="fallback_grids"):
         Robustness(fallback_grids="yes")

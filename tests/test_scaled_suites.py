@@ -10,7 +10,7 @@ import pytest
 from drakeslip import SlipParams
 from drakeslip.hopper_file import Hopper, paper_hopper
 from planners.formats.suite import load_suite, make_suite, save_suite
-from planners.formats.suite_draw import draw_suite, suite_from_terrains, suite_hopper
+from planners.formats.suite_draw import draw_suite, suite_from_terrains, suite_hopper, suite_scales
 
 ROOT = Path(__file__).resolve().parents[1]
 BIG = Hopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0, friction=0.9), "big")
@@ -29,23 +29,56 @@ def test_the_committed_suites_are_drawn_byte_for_byte(tmp_path, family, seed):
     assert load_suite(ROOT / "suites" / f"{family}.json").hopper is None
 
 
-@pytest.mark.parametrize("family, seed", [("ditch", 1000), ("mixed", 3000)])
-def test_another_hoppers_suite_is_the_same_problems_in_its_units(family, seed):
+@pytest.mark.parametrize("family, seed", [("step", 2000), ("mixed", 3000)])
+def test_a_stiffer_hoppers_suite_is_the_same_problems_in_its_units(family, seed):
+    """A hopper stiffer than the paper's (k L0 / (m g) = 35.7) and grippier starts as high and as fast in its units
+    and meets the same steps; its stride in leg lengths is 0.97 the paper's, so its ditches and its course are."""
     paper, big = make_suite(family, seed), draw_suite(family, seed, BIG)
+    scales = suite_scales(BIG.params)
     length, speed = 1.4, math.sqrt(1.4)
-    assert big.goal_x == pytest.approx(paper.goal_x * length) and big.friction == 0.9
+    assert (scales.length, scales.speed, scales.terrain_height, *scales.start_heights) == pytest.approx(
+        (length, speed, length, 1.0, 1.0))
+    assert 0.9 * length < scales.stride < length
+    assert big.goal_x == pytest.approx(-1.4 + 11.0 * scales.stride) and big.friction == 0.9
     assert big.hopper == BIG and suite_hopper(big) == BIG and suite_hopper(paper) == paper_hopper()
     assert len(big.cases) == len(paper.cases)
     for p, b in zip(paper.cases, big.cases):
         assert b.terrain.cell == pytest.approx(p.terrain.cell * length)
         assert b.terrain.x0 == pytest.approx(p.terrain.x0 * length)
-        ditches = p.terrain.heights <= p.terrain.ditch_height
-        np.testing.assert_array_equal(b.terrain.heights <= b.terrain.ditch_height, ditches)
-        np.testing.assert_allclose(b.terrain.heights[~ditches], p.terrain.heights[~ditches] * length)
+        if family == "step":
+            np.testing.assert_allclose(b.terrain.heights, p.terrain.heights * length)
         assert b.apex.x == pytest.approx(p.apex.x * length) and b.apex.xdot == pytest.approx(p.apex.xdot * speed)
         above = (b.apex.z - b.terrain.height_at(b.apex.x), p.apex.z - p.terrain.height_at(p.apex.x))
         assert above[0] == pytest.approx(above[1] * length)
     assert big.cases[0].id == f"{family}-{seed}-v{speed:g}-z{0.8 * length:g}"
+
+
+def test_a_softer_hoppers_suite_follows_its_physics():
+    """k L0 / (m g) = 10 and friction 0.6: starts whose vertical drop compresses the spring by the fraction of the
+    stroke the paper's do, slower starts, lower steps and narrower ditches and a shorter course, by its stride; its
+    steps' segments and its islands stay where the paper's are in its lengths."""
+    soft = Hopper(SlipParams(mass=5.0, leg_length=0.4, stiffness=10 * 5.0 * 9.81 / 0.4, friction=0.6), "soft")
+    scales = suite_scales(soft.params)
+    kd, stroke, paper_kd = 10.0, 0.4, 3200 * 0.5 / (7 * 9.81)
+    for z, factor in zip((0.8, 1.0), scales.start_heights):
+        h = z / 0.5 * factor   # the start in leg lengths above the ground
+        drop = (1 + math.sqrt(1 + 2 * kd * (h - 1))) / kd / stroke   # the compression of a vertical drop from h
+        paper_drop = (1 + math.sqrt(1 + 2 * paper_kd * (z / 0.5 - 1))) / paper_kd / stroke
+        assert drop == pytest.approx(paper_drop)   # as a fraction of the stroke
+    assert 1.05 < 0.8 / 0.5 * scales.start_heights[0] < 1.2 < 1.0 / 0.5 * scales.start_heights[1] < 1.3
+    assert scales.speed == pytest.approx(math.sqrt(0.8) * math.sqrt(kd / paper_kd) * math.atan(0.6) / math.atan(0.8))
+    assert 0.1 * 0.8 < scales.terrain_height < 0.3 * 0.8 and 0.3 * 0.8 < scales.stride < 0.6 * 0.8
+    steps, paper = draw_suite("step", 2000, soft), make_suite("step", 2000)
+    np.testing.assert_allclose(steps.cases[0].terrain.heights, paper.cases[0].terrain.heights * scales.terrain_height)
+    ditches, paper = draw_suite("ditch", 1000, soft), make_suite("ditch", 1000)
+    assert ditches.goal_x == pytest.approx(-0.8 + 11.0 * scales.stride)
+    mine, theirs = (np.diff(np.r_[0, (t.heights <= t.ditch_height).astype(int), 0]) for t in
+                    (ditches.cases[0].terrain, paper.cases[0].terrain))
+    widths = [np.flatnonzero(d == -1) - np.flatnonzero(d == 1) for d in (mine, theirs)]
+    assert widths[0].sum() < 0.7 * widths[1].sum() and widths[0].min() >= 1
+    starts = sorted({(round(c.apex.xdot, 9), round(c.apex.z, 9)) for c in ditches.cases})
+    assert [v for v, _ in starts[::2]] == pytest.approx([v * scales.speed for v in (1.0, 1.5, 2.0, 2.5, 3.0)])
+    assert all(c.apex.x == pytest.approx(-0.8) for c in ditches.cases)
 
 
 def test_a_suite_keeps_its_hopper_and_ditch_heights_through_a_file(tmp_path):
@@ -84,7 +117,8 @@ def test_a_folder_of_profiles_makes_a_suite(tmp_path):
 def test_profiles_for_another_hopper_start_in_its_units(tmp_path):
     suite = suite_from_terrains(profiles(tmp_path / "mine"), BIG)
     assert len(suite.cases) == 2 * 10 and suite.hopper == BIG and suite.friction == 0.9
-    assert suite.goal_x == pytest.approx(14.0) and suite.cases[0].apex.x == pytest.approx(-1.4)
+    assert suite.goal_x == pytest.approx(-1.4 + 11.0 * suite_scales(BIG.params).stride)   # 11 m in its strides
+    assert suite.cases[0].apex.x == pytest.approx(-1.4)
     assert suite.cases[0].apex.xdot == pytest.approx(math.sqrt(1.4))
     assert json.loads(json.dumps(suite.to_dict()))["hopper"]["params"]["mass"] == 12.0
 

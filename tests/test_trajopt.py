@@ -8,6 +8,7 @@ import pytest
 from drakeslip import SlipParams, Terrain, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.terrain import DITCH_HEIGHT
+from drakeslip.units import units_of
 from planners.learned.lstm import load_model
 from planners.trajopt import autodiff as G
 from planners.trajopt import solve
@@ -66,7 +67,7 @@ def test_constraints_agree_with_the_fast_step_map_on_a_simulated_seed():
     terrain = Terrain.flat()
     footholds, apexes = executed_footholds(APEX, [0.25, 0.27, 0.27], terrain)
     problem = make_problem(APEX, terrain, apexes[-1][0] - 0.1, PARAMS)
-    config = TrajoptConfig()
+    config = TrajoptConfig().for_hopper(problem.units)
     segs = assign_segments(terrain, footholds, config.edge_margin, problem.window_end)
     guess = build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
     assert guess.fast_ok, guess.fast_failure
@@ -91,7 +92,7 @@ def test_collocation_jacobian_matches_its_declared_sparsity_and_finite_differenc
 
     terrain = Terrain.flat()
     footholds, _ = executed_footholds(APEX, [0.25, 0.27], terrain)
-    config = TrajoptConfig(collocation=collocation, knots=8)
+    config = TrajoptConfig(collocation=collocation, knots=8).for_hopper(units_of(PARAMS))
     segs = assign_segments(terrain, footholds, config.edge_margin)
     guess = build_guess(APEX, footholds, segs, terrain, PARAMS, config.node_times())
     program = SlipTrajopt(APEX, terrain, segs, PARAMS, config=config)

@@ -23,7 +23,8 @@ def flat():
     """A 3-hop cold-start problem on flat ground (each solve takes ~1-2 s), its footholds and segments."""
     problem = make_problem((0.0, 0.9, 1.5), Terrain.flat(), 2.0, PARAMS)
     footholds, _ = seed_footholds("cold", problem, TrajoptConfig.max_hops, None, 0, None)
-    segs = assign_segments(problem.terrain, footholds, TrajoptConfig.edge_margin, problem.window_end)
+    segs = assign_segments(problem.terrain, footholds, TrajoptConfig().for_hopper(problem.units).edge_margin,
+                           problem.window_end)
     return problem, footholds, segs
 
 

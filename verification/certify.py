@@ -3,6 +3,7 @@ saved as a plan file would save it and checked on Drake (``plan_check``): certif
 from __future__ import annotations
 
 from drakeslip import SlipParams, StepLengthController
+from drakeslip.units import units_of
 
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import suite_from_dict
@@ -25,7 +26,7 @@ def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: s
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "case", "goal_x": goal_x, "friction": friction,
                              "cases": [case]})
     c, params = suite.cases[0], SlipParams(friction=friction)
-    plan = _WORKER["planners"][label].plan(c.apex, c.terrain.perceived(c.apex.x), goal_x, params)
+    plan = _WORKER["planners"][label].plan(c.apex, c.terrain.perceived(c.apex.x, *units_of(params).window), goal_x, params)
     record = {"label": label, "id": c.id, "kind": None, "hop": None}
     if not plan.success:
         return {**record, "verdict": "no plan", "reason": plan.message, "hops": 0}

@@ -4,8 +4,10 @@ Each (planner label, case) is one task of the job runner (``drakeslip.jobs``): r
 worker processes or on a Ray cluster, saved to a JSON-lines store as it finishes, and reused by a later run of
 the same setup with the same code, so a killed evaluation resumes where it stopped. A task's key is a
 fingerprint of everything its result depends on: the code version (``verification.provenance.code_version``:
-the commit and a digest of uncommitted changes), the case, the planner and its options after presets, the
-closed-loop settings, and the digests of the controller and every weights file the planner reads. Cached results
+the commit and a digest of uncommitted changes), the case, the hopper, the planner and its options after presets,
+the closed-loop settings, and the digests of the controller and every weights file the planner reads. Every case is
+planned for and executed with the suite's hopper (``Suite.hopper``, the paper's when the suite records none) with
+the suite's friction, and the results record that hopper (``Hopper.to_record``). Cached results
 of other code are never reused: the run says how many cached results it reused and how many of other code it
 ignored, and computes the rest. The results record the same (each planner's "options", "config" and "weights":
 SHA-256 by file) with the code version the keys hold, the libraries, machine and date ("provenance").
@@ -16,14 +18,17 @@ import hashlib
 import json
 from pathlib import Path
 
-from drakeslip import SlipParams
+from dataclasses import asdict
+
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
+from drakeslip.hopper_file import Hopper, params_from_fields
 from drakeslip.jobs.executors import prepare
 from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.closed_loop import ClosedLoopConfig, run_case
-from planners.formats.suite import Suite, suite_from_dict
+from planners.formats.suite import Suite, suite_from_dict, terrain_record
+from planners.formats.suite_draw import suite_hopper
 from planners.registry import files_read, make_planners, options_for
 from verification.provenance import code_version, provenance, weights_digests
 from verification.report import summarize
@@ -45,22 +50,23 @@ def digest(path) -> str:
 
 def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path,
                 code: str | None = None) -> str:
-    """Identifies a (code, suite, planner, options, closed loop, weights) setup, so cached cases are reused only
-    for the same setup: changing the code (``code``, default ``code_version()``), retraining the controller or
-    any weights file the planner reads invalidates them."""
+    """Identifies a (code, suite and its hopper, planner, options, closed loop, weights) setup, so cached cases are
+    reused only for the same setup: changing the code (``code``, default ``code_version()``), the hopper,
+    retraining the controller or any weights file the planner reads invalidates them."""
     files = {name: digest(path) for name, path in files_read(label, options).items()}
     loop = config.to_dict()
     if config.noise.silent:  # a noiseless run does not depend on the noise's seed: its cached cases stay valid
         del loop["noise"], loop["seed"]
-    blob = json.dumps([code_version() if code is None else code, suite.goal_x, suite.friction, label, options,
-                       loop, digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
+    blob = json.dumps([code_version() if code is None else code, suite.goal_x, suite.friction,
+                       asdict(suite_hopper(suite).params), label, options, loop,
+                       digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
 def case_key(setup: str, case) -> str:
     """The store key of one case under one setup (a ``fingerprint``, which holds the code version): the setup
     and the case's own content."""
-    blob = json.dumps([setup, case.id, case.terrain.to_dict(), list(case.apex)], sort_keys=True)
+    blob = json.dumps([setup, case.id, terrain_record(case.terrain), list(case.apex)], sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
@@ -78,12 +84,14 @@ def prepare_worker(specs: dict, controller_path, refine: bool) -> None:
     _WORKER["planners"] = make_planners(specs, controller)
 
 
-def run_task(label: str, case: dict, goal_x: float, friction: float, config: ClosedLoopConfig) -> dict:
-    """One case (a suite's case entry) for one planner label, with the planners ``prepare_worker`` built."""
+def run_task(label: str, case: dict, goal_x: float, friction: float, config: ClosedLoopConfig,
+             hopper: dict) -> dict:
+    """One case (a suite's case entry) for one planner label, with the planners ``prepare_worker`` built, for the
+    hopper whose parameters are ``hopper`` (``SlipParams`` fields) on ground of ``friction``."""
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "task", "goal_x": goal_x, "friction": friction,
                              "cases": [case]})
-    return run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x,
-                    SlipParams(friction=friction), config)
+    params = params_from_fields(hopper, "the task's hopper").with_friction(friction)
+    return run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x, params, config)
 
 
 def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
@@ -117,8 +125,10 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     setups = {label: fingerprint(suite, label, options, configs[label], controller_path, origin["code_version"])
               for label, options in specs.items()}
     owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
-    tasks = [(key, (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()}, suite.goal_x,
-                    suite.friction, configs[label])) for key, (label, c) in owner.items()]
+    hopper: Hopper = suite_hopper(suite)
+    tasks = [(key, (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
+                    suite.goal_x, suite.friction, configs[label], asdict(hopper.params)))
+             for key, (label, c) in owner.items()]
     store = JsonLinesStore(cache_path, CASE_FIELDS, origin["code_version"]) if cache_path else None
     done = {label: {} for label in specs}
     with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
@@ -127,7 +137,7 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
             done[label][case.id] = result
             bar.update(1)
             bar.set_postfix({n: f"{sum(r['success'] for r in d.values())}/{len(d)}" for n, d in done.items()})
-    return {"suite": suite.name, "options": specs, "provenance": origin,
+    return {"suite": suite.name, "hopper": hopper.to_record(), "options": specs, "provenance": origin,
             "planners": {label: {"config": configs[label].to_dict(),
                                  "weights": weights_files(label, specs[label], controller_path),
                                  **summarize([done[label][c.id] for c in cases])}

@@ -22,7 +22,6 @@ The verdicts (``verdict``, with a one-line ``statement`` of what it rests on)
                               ``holds_at`` is the finest such pass (0.25 deg, 5 mm x 1 cm/s, confirming the
                               ``coarser`` 0.5 deg, 1 cm x 1 cm/s); ``unconfirmed`` names a finer pass that ran out
                               of budget first, with no witness (none with ``confirm``: then the case is unknown).
-                              Finer grids with no merging find no plan either on the samples of the tests.
   ``unknown``                 ``why``: "time" or "nodes" (a budget ran out), "witnesses" (Drake rejected
                               ``max_witnesses``) or "pruned" (exhausted only after rejected witnesses pruned it).
 
@@ -36,8 +35,9 @@ The search
   less than ``TRIP_MARGIN``, is risky: there the two simulators can part (Drake checks guards at its 2 ms step
   ends), and it adds ``EDGE_RISK``; a hop to an apex slower than ``CAREFUL_SPEED`` (the planners' floor) adds 1.
   The queue pops the node farthest ahead, less ``RISK_COST`` m per unit of risk on its path: low-energy starts
-  often need slow hops to climb a step, and popping every safe apex first took 70k-200k nodes to find such
-  witnesses, against a few thousand. The order prunes nothing, so the verdicts keep their meaning.
+  often need slow hops to climb a step, which a queue of the safe apexes first reaches only after far more nodes.
+  The order prunes nothing, so the verdicts keep their meaning. Speeds, lengths and merge cells are the paper's
+  hopper's, used in the checked hopper's units (``drakeslip.units``; ``min_speed`` given is in m/s).
 
 The Drake check
   A witness is executed on Drake in one continuous simulation, replanned on the fast map from Drake's apex
@@ -56,6 +56,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.rollout import HOP_SECONDS, rollout
 
+from drakeslip.units import units_of
 from planners.base import Budget
 from planners.search.tree import clear_of_edges
 from verification.energy_bound import CellGraph, Coreach, prove_unreachable
@@ -109,18 +110,22 @@ class _Pass:
     def __init__(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams, res: Resolution,
                  min_speed: float, alive=None, parallel: bool = False):
         self.terrain, self.goal_x, self.params, self.res, self.min_speed = terrain, goal_x, params, res, min_speed
+        u = units_of(params)   # merge cells, margins and the risk cost in the hopper's units
+        self.merge_x, self.risk_cost, self.edge_margin, self.trip_margin = (
+            c * u.length for c in (res.merge_x, RISK_COST, EDGE_MARGIN, TRIP_MARGIN))
+        self.merge_xdot, self.careful = res.merge_xdot * u.speed, CAREFUL_SPEED * u.speed
         self.alive, self.parallel = alive, parallel   # rows of apexes -> mask, or None; all cores per batch
         self.grid = res.angles(params)
         self.parent, self.angle, self.foothold, self.risk = [-1], [math.nan], [math.nan], [0]
         self.apex = [tuple(apex)]
         self.seen = {self._key(apex[0], apex[2]): 0}   # merge cell -> the node that represents it
-        self.queue = [(_priority(0, apex[0]), 0)]
+        self.queue = [(-apex[0], 0)]   # smallest first: farthest ahead, less the risk cost of the path
         self.goals: list = []       # goal nodes found, not yet handed out
         self.banned: set = set()    # nodes whose hop Drake rejected (and so their subtrees)
         self.expanded, self.nodes, self.pruned = bytearray(1), 0, 0   # expanded[node] = 1 once expanded
 
     def _key(self, x, xdot):
-        return (round(x / self.res.merge_x), round(xdot / self.res.merge_xdot))
+        return (round(x / self.merge_x), round(xdot / self.merge_xdot))
 
     def _alive(self, node: int) -> bool:
         while node > 0 and self.banned:
@@ -188,11 +193,11 @@ class _Pass:
             return
         top, angle, L0 = starts[idx // n], self.grid[idx % n], self.params.leg_length   # foot clearance at apex:
         foot = top[:, 1] - L0 * np.cos(angle) - self.terrain.height_at(top[:, 0] + L0 * np.sin(angle))
-        risky = (EDGE_RISK * (~clear_of_edges(self.terrain, r.touchdown_x[idx], EDGE_MARGIN) | (foot < TRIP_MARGIN))
-                 + (r.next_xdot[idx] < CAREFUL_SPEED))
+        risky = (EDGE_RISK * (~clear_of_edges(self.terrain, r.touchdown_x[idx], self.edge_margin)
+                              | (foot < self.trip_margin)) + (r.next_xdot[idx] < self.careful))
         risk = np.array([self.risk[b] for b in batch])[idx // n] + risky
-        kx = np.round(r.next_x[idx] / self.res.merge_x).astype(np.int64)
-        kv = np.round(r.next_xdot[idx] / self.res.merge_xdot).astype(np.int64)
+        kx = np.round(r.next_x[idx] / self.merge_x).astype(np.int64)
+        kv = np.round(r.next_xdot[idx] / self.merge_xdot).astype(np.int64)
         # one child per merge cell: the first with the least risk (goals are all kept)
         order = np.lexsort((np.arange(idx.size), risk, kv, kx, goal[idx]))
         ks, vs, gs = kx[order], kv[order], goal[idx][order]
@@ -205,14 +210,14 @@ class _Pass:
         for b, angle, foothold, x, z, xdot, rk, is_goal, key_x, key_v in rows:
             if is_goal:
                 node = self._add(batch[b], angle, foothold, (x, z, xdot), rk)
-                heapq.heappush(self.goals, (_priority(rk, x), node))
+                heapq.heappush(self.goals, (self.risk_cost * rk - x, node))
                 continue
             held = self.seen.get((key_x, key_v))
             if held is not None and (self.risk[held] <= rk or self.expanded[held]):
                 continue
             node = self._add(batch[b], angle, foothold, (x, z, xdot), rk)
             self.seen[(key_x, key_v)] = node
-            heapq.heappush(self.queue, (_priority(rk, x), node))
+            heapq.heappush(self.queue, (self.risk_cost * rk - x, node))
 
     def path(self, node: int) -> list[int]:
         """Nodes from the first hop's child to ``node``."""
@@ -230,17 +235,11 @@ class _Pass:
         self.banned.add(node)
 
 
-def _priority(risk: int, x: float) -> float:   # queue order, smallest first: farthest ahead, less the risk cost
-    return RISK_COST * risk - x
-
-
 def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float, terrain: Terrain,
                      params: SlipParams) -> dict:
     """Execute a witness on the Drake simulator, with its leg angles commanded at each apex, and replan when
-    Drake's apex has drifted more than ``REPLAN_TOLERANCE`` from the fast map's prediction:
-    ``search_from(apex)`` must return a new witness from there, or None. Pure open-loop replay is not enough
-    in general: the backends differ by ~1e-8 m a hop and a slow gait amplifies that up to 4-10x a hop, as
-    any open-loop SLIP gait does (the evaluation replans every 3 hops for the same reason). It is one
+    Drake's apex has drifted more than ``REPLAN_TOLERANCE`` from the fast map's prediction: ``search_from(apex)``
+    must return a new witness from there, or None (open-loop replay drifts: see the module doc). It is one
     continuous, deterministic simulation, so the leg angles it ran re-check open-loop on Drake exactly.
     Returns {"ok", "replans", "hops_done", "failure", "final_x", "drift_hop", "leg_angles", "footholds",
     "apexes"}: ok when every hop succeeds and the last apex is at or past ``goal_x``; ``drift_hop`` is the first
@@ -275,7 +274,7 @@ def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float,
 
 
 def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, levels=LEVELS,
-                budget: Budget = DEFAULT_BUDGET, min_speed: float = MIN_SPEED, drake_check: bool = True,
+                budget: Budget = DEFAULT_BUDGET, min_speed: float | None = None, drake_check: bool = True,
                 max_witnesses: int = MAX_WITNESSES, energy: bool = True, confirm: bool = False,
                 parallel: bool = False) -> dict:
     """The verdict for one start: {"verdict", "statement", "holds_at", "proof", "why", "witness", "nodes",
@@ -284,11 +283,12 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
     ``energy``: settle the case by the energy argument first where it can, and drop the apexes it shows dead.
     ``levels`` are tried in order, each later one only if the one before exhausted its graph. The case is not
     traversable at the finest level that exhausted if the next ran out of budget without a witness (or, with
-    ``confirm``, only if every level exhausted; ``holds_at`` says which). ``budget`` bounds the node expansions and the
-    seconds of all passes together (Drake executions use up the seconds too, but one is never cut short;
+    ``confirm``, only if every level exhausted; ``holds_at`` says which). ``budget`` bounds the node expansions and
+    the seconds of all passes together (Drake executions use up the seconds too, but one is never cut short;
     replans inside them do not count as nodes). ``drake_check=False`` accepts the first witness on the fast
     step map alone (diagnosis only). ``parallel`` spreads each batch of hops over all cores (the same results)."""
     params = params or SlipParams()
+    min_speed = units_of(params).speed_or(min_speed, MIN_SPEED)
     apex = ApexState(*map(float, apex)).validate()
     if not isinstance(budget, Budget):
         raise TypeError(f"budget must be a planners.base.Budget, got {type(budget).__name__}")

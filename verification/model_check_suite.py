@@ -13,8 +13,9 @@ from drakeslip import SlipParams
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.base import Budget
-from planners.formats.suite import Case, Suite
-from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, MIN_SPEED, NOT_TRAVERSABLE,
+from planners.formats.suite import Case, Suite, terrain_record
+from planners.formats.suite_draw import suite_hopper
+from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, NOT_TRAVERSABLE,
                                       NOT_TRAVERSABLE_VERDICTS, PROVED_NOT_TRAVERSABLE, TRAVERSABLE, UNKNOWN,
                                       model_check, resolution_text)
 
@@ -45,10 +46,11 @@ def _config(levels, min_speed, drake_check, max_witnesses, energy=True, confirm=
             "max_witnesses": max_witnesses, "energy": energy, "confirm": confirm, "version": CACHE_VERSION}
 
 
-def case_key(case: Case, goal_x: float, friction: float, config: dict) -> str:
-    """Identifies a case and the oracle's settings (not its budget), so a cached verdict is reused only for
-    the same question."""
-    blob = json.dumps([case.terrain.to_dict(), list(case.apex), goal_x, friction, config], sort_keys=True)
+def case_key(case: Case, goal_x: float, params: SlipParams, config: dict) -> str:
+    """Identifies a case, the hopper (with the suite's friction) and the oracle's settings (not its budget), so a
+    cached verdict is reused only for the same question."""
+    blob = json.dumps([terrain_record(case.terrain), list(case.apex), goal_x, asdict(params), config],
+                      sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
@@ -78,7 +80,7 @@ def summarize(records: list) -> dict:
 
 
 def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
-                levels=LEVELS, min_speed: float = MIN_SPEED, drake_check: bool = True,
+                levels=LEVELS, min_speed: float | None = None, drake_check: bool = True,
                 max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None, energy: bool = True,
                 confirm: bool = False, parallel: bool = False) -> dict:
     """Run the oracle on ``cases`` of ``suite`` on ``executor`` (``drakeslip.jobs.executors``; default this
@@ -89,8 +91,8 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
     from tqdm import tqdm
 
     config = _config(levels, min_speed, drake_check, max_witnesses, energy, confirm)
-    params = SlipParams(friction=suite.friction)
-    keys = {c.id: case_key(c, suite.goal_x, suite.friction, config) for c in cases}
+    params = suite_hopper(suite).params.with_friction(suite.friction)   # the suite's hopper on the suite's ground
+    keys = {c.id: case_key(c, suite.goal_x, params, config) for c in cases}
     first = {}
     for c in cases:  # identical cases ask the same question: checked once
         first.setdefault(keys[c.id], c)

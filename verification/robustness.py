@@ -154,8 +154,7 @@ def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: i
     if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
         raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
     map_filter = check_window(map_filter, "map_filter")
-    controller = controller or StepLengthController.load_default()
-    controller.check_params(record.params)
+    controller = (controller or StepLengthController.load_default()).for_params(record.params)
     draws = draw_robots(record, n, noise, seed, hops, map_filter)
     failures, failed = _run(record, draws, hops, controller, backend)
     return Robustness(record, noise, seed, backend, hops, draws, failures, failed, map_filter)

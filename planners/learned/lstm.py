@@ -7,6 +7,7 @@ import numpy as np
 
 from drakeslip import StepLengthController, Terrain
 from drakeslip.state import as_apex
+from drakeslip.units import PAPER, units_of
 
 from planners.base import FootstepSequence, Plan, Planner, Problem
 from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
@@ -14,6 +15,7 @@ from planners.learned.inference import NumpyFootstepModel, softmax
 from planners.learned.inputs import WindowEncoding, encode_window
 from planners.learned.model import FootstepModel, load_checkpoint
 from planners.learned.ranker import FootholdRanker, candidate_features, log_probability, top_candidates
+from planners.search.step_space import GRID_SPACING
 from planners.search.tree import EDGE_MARGIN, clear_of_edges
 
 _MODELS: dict = {}
@@ -71,10 +73,12 @@ class LSTMPlanner(Planner):
     (``EXPERT_WEIGHTS``), and the learned re-ranker's pick (``RANKER_WEIGHTS``). The paper's planner, its model's
     modes for up to 12 steps, is the preset ``lstm@paper``.
 
-    The mode is taken over footholds the hopper can use, on a quarter-cell grid (the bins of a 4-bin sub-cell
-    model; a per-cell model's probabilities interpolated between cell centres, so a mode next to a ditch
-    slides away from its edge): ahead of the previous foothold, on solid ground at least ``edge_margin`` from
-    an edge, and, for the first step, reached by the controller inside the friction cone. The paper reports
+    The mode is taken over footholds the hopper can use, on Step-space's grid (GRID_SPACING in the hopper's
+    lengths: the bins of a 4-bin sub-cell model; a per-cell model's probabilities interpolated between cell
+    centres, so a mode next to a ditch slides away from its edge): ahead of the previous foothold, on solid ground
+    at least ``edge_margin`` (None: the paper's EDGE_MARGIN in the hopper's lengths) from an edge, and, for the
+    first step, reached by the controller inside the friction cone. The model reads the window in the hopper's
+    units (planners/learned/inputs.py). The paper reports
     that its mode often failed on exactly these two counts (friction cone, edges); both can be checked without
     simulating.
 
@@ -86,7 +90,7 @@ class LSTMPlanner(Planner):
     name = "lstm"
 
     def __init__(self, model=EXPERT_WEIGHTS, max_steps: int = 1, mask_ditches: bool = True,
-                 controller: StepLengthController | None = None, edge_margin: float = EDGE_MARGIN,
+                 controller: StepLengthController | None = None, edge_margin: float | None = None,
                  feedback: str = "distribution", ranker=RANKER_WEIGHTS, top_k: int = 5, **budget):
         super().__init__(**budget)
         if feedback not in ("distribution", "mode"):
@@ -98,31 +102,32 @@ class LSTMPlanner(Planner):
         self.net = FootstepDistribution(self.model, mask_ditches)
         self.max_steps = max_steps
         self.controller = controller or StepLengthController.load_default()
-        self.edge_margin = float(edge_margin)
+        self.edge_margin = None if edge_margin is None else float(edge_margin)
         if not (isinstance(top_k, int) and top_k >= 1):
             raise ValueError(f"top_k must be a positive integer, got {top_k!r}")
         self.top_k = top_k
         self.ranker = None if ranker is None else FootholdRanker(ranker)
 
-    def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0):
+    def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0, params=None):
         """Per-step probabilities over the window's bins (its cells, or their parts for a sub-cell model),
-        (n, bins), and the bins' centres x (bins,)."""
+        (n, bins), and the bins' centres x (bins,), for the hopper ``params`` (default: the paper's)."""
         apex = as_apex(apex)
-        enc = encode_window(terrain, apex)
+        enc = encode_window(terrain, apex, units_of(params or PAPER))
         return self.net.rollout(enc, n, temperature), self.net.centres(enc)
 
     def _plan(self, problem: Problem) -> Plan:
-        terrain, params, apex = problem.terrain, problem.params, problem.apex
-        enc = encode_window(terrain, apex)
+        terrain, params, apex, units = problem.terrain, problem.params, problem.apex, problem.units
+        enc = encode_window(terrain, apex, units)
         model = self.net.model
         window, apex_in, prev, mask = self.net.inputs(enc)
         state = model.initial_state(apex_in)
         centres = self.net.centres(enc)
-        spacing = terrain.cell / 4
+        spacing = GRID_SPACING * units.length
         first = math.ceil((apex.x - params.leg_length - terrain.x0) / spacing - 0.5)
         last = math.floor((problem.window_end - terrain.x0) / spacing - 0.5)
         grid = terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
-        usable = (terrain.height_at(grid) > terrain.ditch_height) & clear_of_edges(terrain, grid, self.edge_margin)
+        edge_margin = units.length_or(self.edge_margin, EDGE_MARGIN)
+        usable = (terrain.height_at(grid) > terrain.ditch_height) & clear_of_edges(terrain, grid, edge_margin)
         footholds, behind = [], -math.inf
         for _ in range(self.max_steps):
             logits, state = model.step(window, prev, state)
@@ -145,7 +150,7 @@ class LSTMPlanner(Planner):
                         "has probability under the model")
         footholds = np.array(footholds)
         angles = np.full(footholds.size, np.nan)
-        angles[0] = self.controller.leg_angle(apex, footholds[0], terrain)
+        angles[0] = self.controller.for_params(params).leg_angle(apex, footholds[0], terrain)
         seq = FootstepSequence(footholds, angles, np.full((footholds.size, 3), np.nan))
         return Plan(self.name, True, problem.target_x, sequences=[seq])
 
@@ -166,7 +171,8 @@ class LSTMPlanner(Planner):
         order = order[score[order] > 0]
         kept, theta = np.zeros_like(score), np.full(score.size, np.nan)
         if order.size:
-            theta[order] = self.controller.leg_angles(problem.apex, grid[order], problem.terrain)
+            theta[order] = self.controller.for_params(problem.params).leg_angles(problem.apex, grid[order],
+                                                                                problem.terrain)
             ok = np.abs(np.nan_to_num(theta[order], nan=np.inf)) < math.atan(problem.params.friction)
             kept[order[ok]] = score[order[ok]]
         return kept, theta

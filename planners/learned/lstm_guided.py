@@ -30,7 +30,7 @@ class PathConditionedSampler:
     def __init__(self, net: FootstepDistribution, problem, temperature: float, conditioning: str = "path"):
         self.net, self.model = net, net.model
         self.problem = problem
-        self.enc = encode_window(problem.terrain, problem.apex)
+        self.enc = encode_window(problem.terrain, problem.apex, problem.units)
         self.terrain, self.apex, self.s0, self.mask = net.inputs(self.enc)
         self.temperature = temperature
         self.conditioning = conditioning
@@ -38,7 +38,7 @@ class PathConditionedSampler:
 
     def _restart(self, tree, node: int):
         """The model's first-step distribution from the node's own apex and window."""
-        enc = encode_window(self.problem.terrain, ApexState(*tree.apex[node]))
+        enc = encode_window(self.problem.terrain, ApexState(*tree.apex[node]), self.problem.units)
         terrain, apex, s0, mask = self.net.inputs(enc)
         logits, _ = self.model.step(terrain, s0, self.model.initial_state(apex))
         return softmax(logits[0] / self.temperature, None if mask is None else mask[0]), enc
@@ -116,7 +116,6 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.grid_fallback = bool(grid_fallback)
 
     def _plan(self, problem):
-        self.controller.check_params(problem.params)
         attempts = []
         for r in self.robustness_levels():
             # a lazy search draws the same samples whatever its branching, so a robust level tries it once
@@ -124,8 +123,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             attempts += [(f"{attempt_name(r)}B={b}", lambda b=b, r=r: self._search(problem, b, r))
                          for b in branchings]
             if self.grid_fallback and r is None:  # the whole grid, as Step-space searches it
-                attempts += [(f"grid {s or problem.terrain.cell / 4:g} m",
-                              lambda s=s: StepSpacePlanner._search(self, problem, s)) for s in self.spacings]
+                attempts += [(f"grid {s:g} m", lambda s=s: StepSpacePlanner._search(self, problem, s))
+                             for s in self.spacings(problem.units)]
         return run_attempts(self, problem, attempts)
 
     def _search(self, problem, branching, robust=None):
@@ -140,7 +139,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             chunks. A node with candidates left goes back in the queue (Children.more)."""
             if node not in draws:
                 apex = tree.apex[node]
-                x_l = self.candidates(apex, terrain, params, self.spacings[0], problem.window_end)
+                x_l = self.candidates(apex, terrain, params, self.spacings(problem.units)[0], problem.window_end)
                 order = weighted_order(np.maximum(sampler.probabilities(tree, node, x_l), self.floor), rng)
                 draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
             d = draws[node]

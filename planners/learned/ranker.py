@@ -10,7 +10,8 @@ simulating:
   and still work);
 - features (``candidate_features``): the apex relative to the candidate's ground, the candidate's distance and
   ground step, the controller's leg angle to it, its log-probability and rank under the footstep model, where in
-  its cell it lies, and the terrain from 0.5 m behind it to 3 m ahead;
+  its cell it lies, and the terrain from 0.5 m behind it to 3 m ahead; lengths, speeds and cells in the hopper's
+  units, as the footstep model reads them (planners/learned/inputs.py), so for the paper's hopper in metres;
 - model: an MLP scoring each candidate; trained (training/train_ranker.py) with a listwise cross-entropy towards the
   candidates of most room, and evaluated here in numpy (per-call torch overhead would dominate a plan).
 """
@@ -23,6 +24,7 @@ import torch.nn as nn
 from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
 
 from planners.base import Problem
+from planners.learned.inputs import model_cell, relative_heights
 
 FORMAT = "drakeslip-ranker/1"
 ROOM_CAP = 12.0                 # grid steps; past the target there is nothing left to keep room for
@@ -33,16 +35,19 @@ N_FEATURES = 8 + CELLS_BEHIND + CELLS_AHEAD
 
 def candidate_features(problem: Problem, x: np.ndarray, log_p: np.ndarray, theta: np.ndarray) -> np.ndarray:
     """(len(x), N_FEATURES) features of candidate first footholds ``x`` (most probable first), with their
-    log-probabilities under the footstep model and the controller's leg angles to them."""
-    terrain, apex = problem.terrain, problem.apex
+    log-probabilities under the footstep model and the controller's leg angles to them, in the units of the
+    problem's hopper (``Problem.units``)."""
+    terrain, apex, units = problem.terrain, problem.apex, problem.units
+    cell = model_cell(units)
     ground = terrain.height_at(x)
     body_ground = terrain.height_at(np.array([apex.x]))[0]
-    around = x[:, None] + (np.arange(-CELLS_BEHIND, CELLS_AHEAD) + 0.5) * terrain.cell
-    profile = np.clip(terrain.height_at(around) - ground[:, None], -1.0, 1.0)
-    in_cell = np.mod((x - terrain.x0) / terrain.cell, 1.0)
-    return np.column_stack([apex.z - ground, np.full(x.size, apex.xdot), x - apex.x,
-                            np.clip(ground - body_ground, -1.0, 1.0), theta, log_p, np.arange(x.size), in_cell,
-                            profile]).astype(np.float32)
+    around = x[:, None] + (np.arange(-CELLS_BEHIND, CELLS_AHEAD) + 0.5) * cell
+    profile = relative_heights(terrain.height_at(around), terrain.height_at(around) <= terrain.ditch_height,
+                               ground[:, None], units)
+    in_cell = np.mod((x - terrain.x0) / cell, 1.0)
+    return np.column_stack([(apex.z - ground) / units.length, np.full(x.size, apex.xdot / units.speed),
+                            (x - apex.x) / units.length, np.clip((ground - body_ground) / units.length, -1.0, 1.0),
+                            theta, log_p, np.arange(x.size), in_cell, profile]).astype(np.float32)
 
 
 class RankerNet(nn.Module):

@@ -9,21 +9,23 @@ import numpy as np
 from drakeslip import step_batch
 
 from planners.base import Plan, Planner, Problem
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, Children, CostWeights, SearchResult,
-                                  best_first, clear_of_edges, isolation, run_attempts, warm_up)
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Children,
+                                  CostWeights, SearchResult, best_first, clear_of_edges, isolation, run_attempts,
+                                  warm_up)
 
 class AngleSpacePlanner(Planner):
     """Each expansion draws ``branching`` leg angles in the friction cone, one uniformly in each of
     ``branching`` equal strata (seeded), and simulates them all with one batched fast step-map call. If a
     search finds no sequence it is retried with each of ``fallback`` branching factors (the paper: 20, then
     30). Returns up to ``n_sequences`` sequences (d). Children slower than ``min_speed`` at their next apex or
-    landing within ``edge_margin`` of an edge are dropped (see MIN_SPEED, EDGE_MARGIN)."""
+    landing within ``edge_margin`` of an edge are dropped (see MIN_SPEED, EDGE_MARGIN; left at None, the paper's
+    values in the hopper's units, given, in m/s and m)."""
 
     name = "angle"
 
     def __init__(self, branching: int = 20, fallback: tuple = (30,), n_sequences: int = 1,
-                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
-                 edge_margin: float = EDGE_MARGIN, seed: int = 0, **budget):
+                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
+                 edge_margin: float | None = None, seed: int = 0, **budget):
         super().__init__(**budget)
         for b in (branching, *fallback):
             if not (isinstance(b, int) and b >= 1):
@@ -34,8 +36,8 @@ class AngleSpacePlanner(Planner):
         self.n_sequences = n_sequences
         self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
         warm_up()
-        self.min_speed = float(min_speed)
-        self.edge_margin = float(edge_margin)
+        self.min_speed = None if min_speed is None else float(min_speed)
+        self.edge_margin = None if edge_margin is None else float(edge_margin)
         self.seed = seed
 
     def search(self, apex, terrain, goal_x, params=None, branching: int | None = None) -> SearchResult:
@@ -47,15 +49,17 @@ class AngleSpacePlanner(Planner):
         rng = np.random.default_rng(self.seed)
         limit = FRICTION_MARGIN * math.atan(problem.params.friction)
         edges = np.linspace(-limit, limit, branching + 1)
-        params, terrain, window_end = problem.params, problem.terrain, problem.window_end
+        params, terrain, window_end, units = problem.params, problem.terrain, problem.window_end, problem.units
+        min_speed = units.speed_or(self.min_speed, MIN_SPEED)
+        edge_margin, at_failure = units.length_or(self.edge_margin, EDGE_MARGIN), ISOLATION_AT_FAILURE * units.length
 
         def expand(tree, node) -> Children:
             angles = edges[:-1] + rng.uniform(0.0, 1.0, branching) * np.diff(edges)
             res = step_batch(tree.apex[node], angles, terrain, params)
-            ok = res.ok & (res.next_xdot >= self.min_speed)
-            ok[ok] &= clear_of_edges(terrain, res.touchdown_x[ok], self.edge_margin)
+            ok = res.ok & (res.next_xdot >= min_speed)
+            ok[ok] &= clear_of_edges(terrain, res.touchdown_x[ok], edge_margin)
             inside = res.touchdown_x < window_end  # hops past the window end the sequence, they are not in it
-            d = isolation(res.touchdown_x, ok)[inside[ok]]
+            d = isolation(res.touchdown_x, ok, at_failure)[inside[ok]]
             beyond = bool(np.any(ok & ~inside))
             ok &= inside
             apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]

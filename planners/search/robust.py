@@ -21,6 +21,10 @@ which is where noisy runs slip and trip); the node's particles are those next ap
 every particle must also find at least ``lookahead`` working hops in a fan of leg angles from where it lands: a
 robot that replans from there needs a way on. A check is one controller call and one compiled call that flies
 the particles, each with its own hopper over its own terrain, and stops at the first that fails.
+
+The margins (``landing``, ``edge_margin``, ``min_speed``) left at None are the paper's hopper's (LANDING,
+EDGE_MARGIN, MIN_SPEED) in the hopper's units, as every planner setting is (``planners.base.Planner``); given, they
+are in metres and m/s. The noise is the robot's sensors and actuators, in SI units whatever the hopper.
 """
 from __future__ import annotations
 
@@ -37,9 +41,12 @@ from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT,
 from drakeslip.noise import PROFILES, NoiseProfile
 from drakeslip.params import check_count
 from drakeslip.terrain import LEVEL_TOLERANCE
+from drakeslip.units import units_of
 
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
+# The paper's hopper's margins: where a particle must touch down [m], clear of edges [m], how fast it must go on
+LANDING, EDGE_MARGIN, MIN_SPEED = 0.04, 0.01, 0.3
 
 
 @dataclass(frozen=True)
@@ -57,9 +64,9 @@ class Robustness:
     noise: NoiseProfile = PROFILES["realistic"]
     sigmas: float = 2.0
     friction_loss: float = 0.05
-    landing: float = 0.04
-    edge_margin: float = 0.01
-    min_speed: float = 0.3
+    landing: float | None = None
+    edge_margin: float | None = None
+    min_speed: float | None = None
     min_clearance: float = 1.0
     lookahead: int = 2
     depth: int = 2
@@ -73,6 +80,8 @@ class Robustness:
             object.__setattr__(self, "noise", NoiseProfile(**self.noise))
         for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed", "min_clearance"):
             value = getattr(self, name)
+            if value is None and name in ("landing", "edge_margin", "min_speed"):
+                continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
                 raise ValueError(f"Robustness.{name} must be a non-negative number, got {value!r}")
         if not isinstance(self.fallback_grids, bool):
@@ -119,11 +128,13 @@ class Robustness:
                              replace(params, stiffness=params.stiffness * ks, mass=params.mass * ms, friction=friction))
                             for ks, ms, (rise, shift) in variants])
         errors = np.array([e for e, *_ in rows])
+        units = units_of(params)
         return Particles(np.asarray(apex, dtype=np.float64) - errors, errors, np.array([d for _, d, *_ in rows]),
                          np.array([variants.index((ks, ms, g)) for *_, ks, ms, g in rows]),
                          np.array([g[1] for *_, g in rows]), worlds,
                          (np.linspace(-0.95, 0.95, LOOKAHEAD_ANGLES) * math.atan(friction))[::-1].copy(),
-                         self.min_clearance * params.leg_length)
+                         self.min_clearance * params.leg_length, units.length_or(self.landing, LANDING),
+                         units.length_or(self.edge_margin, EDGE_MARGIN), units.speed_or(self.min_speed, MIN_SPEED))
 
     def fly(self, particles: "Particles", foothold: float, controller, terrain: Terrain, last: bool):
         """(robust, the particles' next apexes (P, 3), hops flown) for the candidate ``foothold`` on ``terrain``,
@@ -135,8 +146,8 @@ class Robustness:
         angles = np.clip(aims + particles.angle_errors, -1.5, 1.5)
         w = particles.worlds
         return fly_particles(particles.states, angles, particles.world, particles.shift, w.params, w.heights, w.x0,
-                             w.cell, w.ditch_height, float(foothold), terrain.heights, terrain.x0, self.landing,
-                             self.min_speed, particles.clearance, self.edge_margin,
+                             w.cell, w.ditch_height, float(foothold), terrain.heights, terrain.x0, particles.landing,
+                             particles.min_speed, particles.clearance, particles.edge_margin,
                              particles.fan if last and self.lookahead else NO_FAN, self.lookahead)
 
 
@@ -170,7 +181,9 @@ class Particles:
     told (P, 3), their leg-angle errors (P,), the world each hops in (P,: an index into ``worlds``, its hopper and
     its terrain) and how far that terrain is shifted from the map (P,); the leg angles of the way-on check (a fan
     across their shared friction cone, most forward first: the hops that work lie forward, so a check that needs a
-    few of them stops sooner) and how high above the ground their next apexes must be."""
+    few of them stops sooner), how high above the ground their next apexes must be, and the margins of the
+    robustness that made them in their hopper's units: how close to the foothold they must land, how far from its
+    edges, how fast they must go on."""
 
     states: np.ndarray
     apex_errors: np.ndarray
@@ -180,6 +193,9 @@ class Particles:
     worlds: Worlds
     fan: np.ndarray
     clearance: float
+    landing: float
+    edge_margin: float
+    min_speed: float
 
     def moved(self, states: np.ndarray) -> "Particles":
         """The same robots at new apexes."""

@@ -11,23 +11,36 @@ import numpy as np
 from drakeslip import StepLengthController, step, step_batch
 from drakeslip.stepmap import BACKENDS
 
+from drakeslip.units import HopperUnits, units_of
+
 from planners.base import Plan, Planner, Problem
 from planners.search.robust import Robustness
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, MIN_SPEED, Children, CostWeights, SearchResult,
-                                  best_first, clear_of_edges, isolation, run_attempts, warm_up)
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Children,
+                                  CostWeights, SearchResult, best_first, clear_of_edges, isolation, run_attempts,
+                                  warm_up)
+
+# The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
+GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
+FALLBACK_SPACINGS = (0.01,)
+TOLERANCE = 0.02           # a hop must land this close to its desired foothold
+REACH_PAD = 0.3            # added to the reach on both sides: level changes move touchdowns by up to this
 
 
 class StepSpacePlanner(Planner):
-    """Children: desired footholds x_L on a grid of ``spacing`` (default a quarter of a terrain cell, offset so
-    no x_L sits on a cell edge) between the touchdowns of the extreme friction-cone angles, +-0.3 m for the
-    terrain. The paper used 0.5 m over a 5 m horizon; a 0.5 m leg reaches about 1 m per hop, and at low speed
-    the footholds that keep the next hop alive span only 10-15 cm, so a fine grid is what finds them.
+    """Children: desired footholds x_L on a grid of ``spacing`` (x0 + (i + 1/2) spacing from the terrain's start;
+    default 2.5 cm in the hopper's lengths, a quarter of the paper's 10 cm cells, so the grid is the hopper's
+    whatever the terrain's cells) between the touchdowns of the extreme friction-cone angles, +-0.3 m (in the
+    hopper's lengths) for the terrain. The paper used 0.5 m over a 5 m horizon; a 0.5 m leg reaches about 1 m per
+    hop, and at low speed the footholds that keep the next hop alive span only 10-15 cm, so a fine grid is what
+    finds them.
     Ditch cells, x_L within ``edge_margin`` of an edge, and x_L the controller can only reach outside the
     friction cone are dropped before simulation; the rest go through the controller and one batched fast
     step-map call, and a child is kept when the hop succeeds, lands within ``tolerance`` of x_L and keeps
     ``min_speed``. The plan's footholds are the x_L. If a search finds no sequence it is retried on each
-    ``fallback_spacing`` grid (like the paper's fallback branching): a fast, high hop keeps its next hop
-    alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds.
+    ``fallback_spacing`` grid (like the paper's fallback branching; default 1 cm in the hopper's lengths): a fast,
+    high hop keeps its next hop alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds. Every
+    length and speed option left at None is the paper's value (GRID_SPACING, FALLBACK_SPACINGS, TOLERANCE,
+    MIN_SPEED, EDGE_MARGIN) in the hopper's units; one given is in metres or m/s.
 
     ``robustness`` (a ``planners.search.robust.Robustness``, or its fields as a dict) keeps only children that
     also work in its perturbed scenarios (state, actuation, model and terrain errors) and leave the hopper where
@@ -43,9 +56,9 @@ class StepSpacePlanner(Planner):
     name = "step"
 
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
-                 tolerance: float = 0.02, fallback_spacing: tuple = (0.01,), n_sequences: int = 1,
-                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float = MIN_SPEED,
-                 edge_margin: float = EDGE_MARGIN, step_map: str = "fast",
+                 tolerance: float | None = None, fallback_spacing: tuple | None = None, n_sequences: int = 1,
+                 cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
+                 edge_margin: float | None = None, step_map: str = "fast",
                  robustness: Robustness | dict | None = None, fallback_nominal: bool = True, **budget):
         super().__init__(**budget)
         self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
@@ -56,27 +69,39 @@ class StepSpacePlanner(Planner):
             raise ValueError(f"unknown step_map {step_map!r}; choose one of {BACKENDS}")
         self.step_map = step_map
         self.controller = controller or StepLengthController.load_default()
-        self.spacings = (spacing, *fallback_spacing)
-        for s in self.spacings:
+        self.spacing = spacing
+        self.fallback_spacing = None if fallback_spacing is None else tuple(fallback_spacing)
+        for s in (spacing, *(self.fallback_spacing or ())):
             if s is not None and not (math.isfinite(s) and s > 0):
                 raise ValueError(f"spacing must be a positive distance, got {s!r}")
         if not (isinstance(n_sequences, int) and n_sequences >= 1):
             raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
-        self.tolerance = float(tolerance)
+        self.tolerance = None if tolerance is None else float(tolerance)
         self.n_sequences = n_sequences
         self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
-        self.min_speed = float(min_speed)
-        self.edge_margin = float(edge_margin)
+        self.min_speed = None if min_speed is None else float(min_speed)
+        self.edge_margin = None if edge_margin is None else float(edge_margin)
         warm_up()
 
+    def spacings(self, units: HopperUnits) -> tuple:
+        """The grid spacings [m] a search tries in turn for a hopper of ``units``: ``spacing``, then each
+        ``fallback_spacing``."""
+        fallback = self.fallback_spacing
+        if fallback is None:
+            fallback = tuple(s * units.length for s in FALLBACK_SPACINGS)
+        return (units.length_or(self.spacing, GRID_SPACING), *fallback)
+
     def candidates(self, apex, terrain, params, spacing: float | None, until: float | None = None) -> np.ndarray:
-        """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing, up to ``until``
-        if given. The planner itself asks for the full reach: hops that would land past the perception window
-        are simulated too, to tell a sequence that has gone as far as the robot can see (see best_first)."""
+        """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing (None: the planner's
+        first grid for ``params``), up to ``until`` if given. The planner itself asks for the full reach: hops that
+        would land past the perception window are simulated too, to tell a sequence that has gone as far as the
+        robot can see (see best_first)."""
         x, z, v = apex
+        units = units_of(params)
+        pad = REACH_PAD * units.length
         lo, hi = touchdown_range(x, z, v, terrain, params)
-        lo, hi = lo - 0.3, min(hi + 0.3, math.inf if until is None else until)
-        spacing = spacing or terrain.cell / 4
+        lo, hi = lo - pad, min(hi + pad, math.inf if until is None else until)
+        spacing = spacing or self.spacings(units)[0]
         first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
         return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
 
@@ -84,10 +109,11 @@ class StepSpacePlanner(Planner):
         """The controller's leg angle to each desired foothold, NaN where the foothold is not admissible: a
         ditch cell, within ``edge_margin`` of an edge, or reached only outside the friction cone. Telling these
         apart needs no step-map call."""
-        keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, self.edge_margin)
+        edge_margin = units_of(params).length_or(self.edge_margin, EDGE_MARGIN)
+        keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, edge_margin)
         theta = np.full(x_l.size, np.nan)
         if keep.any():
-            theta[keep] = self.controller.leg_angles(apex, x_l[keep], terrain)
+            theta[keep] = self.controller.for_params(params).leg_angles(apex, x_l[keep], terrain)
         theta[~(np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction))] = np.nan
         return theta
 
@@ -95,7 +121,7 @@ class StepSpacePlanner(Planner):
         """One search on each grid in turn until one finds a sequence; the result's tree holds every node the
         last search created."""
         problem = self.problem(apex, terrain, goal_x, params, time.perf_counter())
-        for robust, spacing in self.attempt_settings():
+        for robust, spacing in self.attempt_settings(problem.units):
             result = self._search(problem, spacing, robust)
             if result.tree.goals or result.stop == "time":
                 break
@@ -108,16 +134,18 @@ class StepSpacePlanner(Planner):
             return [None]
         return self.robustness.levels() + ([None] if self.fallback_nominal else [])
 
-    def attempt_settings(self) -> list:
-        """(robustness or None, grid spacing) of each search attempt, in order: the most robust first."""
-        return [(r, s) for r in self.robustness_levels() for s in self.grids(r)]
+    def attempt_settings(self, units: HopperUnits) -> list:
+        """(robustness or None, grid spacing) of each search attempt for a hopper of ``units``, in order: the most
+        robust first."""
+        return [(r, s) for r in self.robustness_levels() for s in self.grids(r, units)]
 
-    def grids(self, robust: Robustness | None) -> tuple:
+    def grids(self, robust: Robustness | None, units: HopperUnits) -> tuple:
         """The grid spacings searched in turn at a robustness level: the fallback grids only without one or
         where it asks for them (``Robustness.fallback_grids``). They exist for the narrow bands of fast nominal
         hops; at every robust level they would double what a level with no robust sequence costs before the next
         one is tried."""
-        return self.spacings if robust is None or robust.fallback_grids else self.spacings[:1]
+        spacings = self.spacings(units)
+        return spacings if robust is None or robust.fallback_grids else spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
         terrain, params = problem.terrain, problem.params
@@ -156,7 +184,9 @@ class StepSpacePlanner(Planner):
             landed = np.array([h.ok for h in hops])
             touchdown_x = np.array([h.touchdown_x for h in hops])
             apexes[keep] = [h.next_apex if h.ok else h.end_state[:3] for h in hops]
-        ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < self.tolerance) & (apexes[keep, 2] >= self.min_speed)
+        units = problem.units
+        tolerance, min_speed = units.length_or(self.tolerance, TOLERANCE), units.speed_or(self.min_speed, MIN_SPEED)
+        ok[keep] = landed & (np.abs(touchdown_x - x_l[keep]) < tolerance) & (apexes[keep, 2] >= min_speed)
         return ok, apexes
 
     def admission(self, problem: Problem, robust: Robustness | None):
@@ -168,13 +198,14 @@ class StepSpacePlanner(Planner):
         if robust is None:
             return None
         flights = {0: robust.particles(problem.apex, problem.terrain, problem.params)}  # node -> its particles
+        controller = self.controller.for_params(problem.params)
 
         def admit(tree, node):
             depth = tree.depth[node]
             if node in flights or depth > robust.depth:
                 return True, 0
             here = flights[tree.parent[node]]
-            passed, ends, hops = robust.fly(here, tree.foothold[node], self.controller, problem.terrain,
+            passed, ends, hops = robust.fly(here, tree.foothold[node], controller, problem.terrain,
                                             last=depth == robust.depth)
             if passed:
                 flights[node] = here.moved(ends)
@@ -187,16 +218,15 @@ class StepSpacePlanner(Planner):
         """The successful candidates (sorted by x_l) as the node's children; a hop past the window ends the
         sequence rather than joining it."""
         inside = x_l < problem.window_end
-        d = isolation(x_l, ok)[inside[ok]]
+        d = isolation(x_l, ok, ISOLATION_AT_FAILURE * problem.units.length)[inside[ok]]
         beyond = bool(np.any(ok & ~inside))
         ok = ok & inside
         return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
 
     def _plan(self, problem: Problem) -> Plan:
-        self.controller.check_params(problem.params)
-        return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s or problem.terrain.cell / 4:g} m",
+        return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s:g} m",
                                              lambda s=s, r=r: self._search(problem, s, r))
-                                            for r, s in self.attempt_settings()])
+                                            for r, s in self.attempt_settings(problem.units)])
 
 
 def attempt_name(robustness: Robustness | None) -> str:

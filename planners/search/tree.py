@@ -15,14 +15,17 @@ from drakeslip import Terrain, step_batch
 
 from planners.base import Budget, FootstepSequence, Plan, Planner, Problem
 
+# The settings below in metres and m/s are the paper's hopper's; a search uses each in its hopper's units
+# (``Problem.units``: lengths times the length factor, speeds times the speed factor), so it does the same for every
+# hopper. FRICTION_MARGIN is a fraction of the friction cone, the same for all.
 FRICTION_MARGIN = 0.99  # sample strictly inside the friction cone |theta| < atan(mu)
-# A child whose next apex is slower than this is dropped: near-zero apex speeds are one small leg-angle error
-# away from a stall, and the speed term of the cost would otherwise favour them.
+# A child whose next apex is slower than this [m/s] is dropped: near-zero apex speeds are one small leg-angle
+# error away from a stall, and the speed term of the cost would otherwise favour them.
 MIN_SPEED = 0.3
-# Footholds closer than this to a step or ditch edge are dropped: the controller lands within a few millimetres
-# of a foothold, so 2 cm keeps every executed step on the surface it was planned on.
+# Footholds closer than this [m] to a step or ditch edge are dropped: the controller lands within a few
+# millimetres of a foothold, so 2 cm keeps every executed step on the surface it was planned on.
 EDGE_MARGIN = 0.02
-# Isolation of a child whose neighbour sample (in angle or foothold order) failed and that has no successful
+# Isolation [m] of a child whose neighbour sample (in angle or foothold order) failed and that has no successful
 # sibling on that side: the feasible set ends right next to it, so score it like a wide gap.
 ISOLATION_AT_FAILURE = 0.5
 # A node with untried candidates returns to the queue at its cost plus this, so it is expanded again only
@@ -32,7 +35,9 @@ REEXPAND_PENALTY = 0.5
 
 @dataclass(frozen=True)
 class CostWeights:
-    """h = progress * |x - target| + speed * |xdot| + isolation * D (the paper's w1, w2, w3)."""
+    """h = progress * |x - target| + speed * T * |xdot| + isolation * D (the paper's w1, w2, w3), in metres of
+    progress: T is the hopper's time factor (``HopperUnits.time``, 1 s for the paper's hopper), so the speed term
+    weighs the same for every hopper."""
 
     progress: float = 1.0
     speed: float = 1.0
@@ -127,11 +132,11 @@ def warm_up() -> None:
     step_batch((0.0, 1.0, 1.0), [0.1], Terrain.flat())
 
 
-def isolation(footholds: np.ndarray, ok: np.ndarray) -> np.ndarray:
+def isolation(footholds: np.ndarray, ok: np.ndarray, at_failure: float = ISOLATION_AT_FAILURE) -> np.ndarray:
     """D for each successful sample: the mean spread to its nearest successful siblings on either side, the
     samples taken in the order they were generated (increasing angle or desired foothold). A neighbour sample
-    that failed with no success beyond it counts ISOLATION_AT_FAILURE; at the end of the sampled range the
-    spread to the one existing neighbour counts twice."""
+    that failed with no success beyond it counts ``at_failure`` (ISOLATION_AT_FAILURE in the hopper's lengths);
+    at the end of the sampled range the spread to the one existing neighbour counts twice."""
     idx = np.flatnonzero(ok)
     x = footholds[idx]
     n = footholds.size
@@ -142,12 +147,12 @@ def isolation(footholds: np.ndarray, ok: np.ndarray) -> np.ndarray:
     left[1:] = np.abs(x[1:] - x[:-1])
     right[:-1] = left[1:]
     # no successful sibling on a side: a failure boundary if a failed sample lies there, else the range end
-    left[0] = ISOLATION_AT_FAILURE if idx[0] > 0 else np.nan
-    right[-1] = ISOLATION_AT_FAILURE if idx[-1] < n - 1 else np.nan
+    left[0] = at_failure if idx[0] > 0 else np.nan
+    right[-1] = at_failure if idx[-1] < n - 1 else np.nan
     left = np.where(np.isnan(left), right, left)
     right = np.where(np.isnan(right), left, right)
     d = 0.5 * (left + right)
-    return np.where(np.isnan(d), ISOLATION_AT_FAILURE, d)
+    return np.where(np.isnan(d), at_failure, d)
 
 
 @dataclass
@@ -171,6 +176,8 @@ def best_first(problem: Problem, expand, cost_weights: CostWeights, n_sequences:
     or be expanded (a lazy check: only the nodes the search gets to are checked); a node that fails is closed,
     and counts as an expansion with no children."""
     tree = SearchTree(tuple(problem.apex))
+    w, units = cost_weights, problem.units
+    speed_weight, reexpand = w.speed * units.time, REEXPAND_PENALTY * units.length
     queue: list = []
     ode_calls = expansions = 0
     node = 0  # the node to expand next; None after a popped node failed ``admit``
@@ -196,13 +203,12 @@ def best_first(problem: Problem, expand, cost_weights: CostWeights, n_sequences:
                     stop = "goals"
                     break
             if children.angles.size:
-                w = cost_weights
                 cost = (w.progress * np.abs(children.footholds - problem.target_x)
-                        + w.speed * np.abs(children.apexes[:, 2]) + w.isolation * children.isolation)
+                        + speed_weight * np.abs(children.apexes[:, 2]) + w.isolation * children.isolation)
                 for i, c in zip(tree.add(node, children, cost), cost.tolist()):
                     heapq.heappush(queue, (c, i))
             if children.more:  # back in the queue behind its own children (the root: behind everything)
-                heapq.heappush(queue, (tree.cost[node] + REEXPAND_PENALTY, node))
+                heapq.heappush(queue, (tree.cost[node] + reexpand, node))
         node = -1
         while queue:
             _, i = heapq.heappop(queue)

@@ -13,6 +13,10 @@ Cost (a documented trade; the terms' weights in ``ObjectiveWeights``, ``TrajoptC
        - stroke   * m_s / STROKE_SCALE   (m_s: least spring travel left over the plan)    keep spring travel
        - friction * m_f / FRICTION_SCALE (m_f: least mu - |x - f| / (z - h) over the plan) keep friction to spare
 
+The scales in metres and m/s, like every length and speed setting below, are the paper's hopper's; the program
+uses them in its hopper's units (``TrajoptConfig.for_hopper``: lengths times the length factor, speeds times the
+speed factor, times times the time factor), so it poses the same problem for every hopper.
+
 The edge term is (5 cm / distance)^2: large within a few cm of an edge, negligible a few decimetres away, so it
 pushes footholds off edges without pulling them to segment centres. Angle and speed changes are measured in
 units of 0.1 rad and 0.5 m/s; smooth commands and steady speeds are also what keeps an open-loop plan robust.
@@ -29,7 +33,7 @@ Where the least margin is set by the terrain (a drop, the start apex) the terms 
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,26 +67,33 @@ class ObjectiveWeights:
     friction: float = 0.0
 
 
+# The paper's hopper's constraint margins and speed bounds: TrajoptConfig's length and speed fields left at None
+# take these in the hopper's units (``TrajoptConfig.for_hopper``).
+PAPER_LENGTHS = {"edge_margin": 0.03, "stroke_margin": 0.003, "clearance": 0.01, "target_margin": 0.05}
+PAPER_SPEEDS = {"min_speed": 0.3, "max_speed": 6.0, "min_stance_speed": 0.05}
+
+
 @dataclass(frozen=True)
 class TrajoptConfig:
     """Transcription, constraint margins, cost and solver settings (the constraints are described in
-    ``program``, the cost above)."""
+    ``program``, the cost above). The margins [m] and speed bounds [m/s] left at None are the paper's hopper's
+    (PAPER_LENGTHS, PAPER_SPEEDS; the values in the comments) in the planned hopper's units: ``for_hopper``."""
 
     collocation: str = "chebyshev"   # or "hermite-simpson"
     knots: int = 20                  # stance knots minus one (Chebyshev degree, or Hermite-Simpson segments)
     max_hops: int = 24               # a seed's footholds beyond this many are dropped (slow starts take ~20
                                      # hops to cross the 7 m horizon; 24 hops solve in ~10-30 s)
-    edge_margin: float = 0.03        # [m] footholds stay this far inside their segment
-    friction_fraction: float = 0.95  # stance knots stay inside the cone of this fraction of mu
-    stroke_margin: float = 0.003     # [m] knots stay this much above min_leg_length (covers the dip between
-                                     # knots at mid-stance, ~1.5 mm for 20 Chebyshev knots)
-    clearance: float = 0.01          # [m] body and extended foot above the terrain in flight (slow, low hops
-                                     # of a Step-space seed lift the foot only 1-2 cm at apex)
-    flight_samples: int = 6          # intervals per ascent and per descent checked for clearance
-    target_margin: float = 0.05      # [m] the last apex is planned this far past the target
-    min_speed: float = 0.3           # [m/s] apex speed bounds
-    max_speed: float = 6.0
-    min_stance_speed: float = 0.05   # [m/s] xdot at every stance knot (a STALL below 0)
+    edge_margin: float | None = None     # 0.03 m: footholds stay this far inside their segment
+    friction_fraction: float = 0.95      # stance knots stay inside the cone of this fraction of mu
+    stroke_margin: float | None = None   # 0.003 m: knots stay this much above min_leg_length (covers the dip
+                                         # between knots at mid-stance, ~1.5 mm for 20 Chebyshev knots)
+    clearance: float | None = None       # 0.01 m: body and extended foot above the terrain in flight (slow, low
+                                         # hops of a Step-space seed lift the foot only 1-2 cm at apex)
+    flight_samples: int = 6              # intervals per ascent and per descent checked for clearance
+    target_margin: float | None = None   # 0.05 m: the last apex is planned this far past the target
+    min_speed: float | None = None       # 0.3 m/s and 6 m/s: apex speed bounds
+    max_speed: float | None = None
+    min_stance_speed: float | None = None  # 0.05 m/s: xdot at every stance knot (a STALL below 0)
     objective: ObjectiveWeights = field(default_factory=ObjectiveWeights)
     solver: str = "snopt"            # "snopt" or "ipopt"; snopt falls back to ipopt when unavailable
     seed_model: str | None = None    # checkpoint for the lstm and lstm-guided seeds, over their presets' (a
@@ -102,6 +113,13 @@ class TrajoptConfig:
 
         return node_times(self.collocation, self.knots)
 
+    def for_hopper(self, units) -> "TrajoptConfig":
+        """This config with every length and speed left at None set to the paper's value in the units of a hopper
+        (``drakeslip.units.HopperUnits``); the settings given are kept."""
+        values = {name: units.length_or(getattr(self, name), paper) for name, paper in PAPER_LENGTHS.items()}
+        values.update({name: units.speed_or(getattr(self, name), paper) for name, paper in PAPER_SPEEDS.items()})
+        return replace(self, **values)
+
     def __post_init__(self):
         if not (isinstance(self.knots, int) and self.knots >= 2):
             raise ValueError(f"knots must be an integer >= 2, got {self.knots!r}")
@@ -118,7 +136,7 @@ class TrajoptConfig:
         if not 0 < self.friction_fraction <= 1:
             raise ValueError(f"friction_fraction must lie in (0, 1], got {self.friction_fraction!r}")
         for name in ("edge_margin", "stroke_margin", "clearance", "target_margin", "polish_violation"):
-            if not getattr(self, name) >= 0:
+            if getattr(self, name) is not None and not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be non-negative, got {getattr(self, name)!r}")
 
 

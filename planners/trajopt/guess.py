@@ -13,6 +13,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip import dynamics as dyn
 from drakeslip.fast_step import rk4_step
+from drakeslip.units import units_of
 from planners.trajopt.config import SEED_TOLERANCE
 from planners.trajopt.seeds import default_controller
 from planners.trajopt.segments import Segment
@@ -36,11 +37,12 @@ class Guess:
 def _stance_knots(s0, foot, params: SlipParams, tau: np.ndarray, max_time: float = 1.0):
     """Integrate stance from the touchdown state s0 (RK4 on the shared dynamics.stance_derivatives) until the
     leg is back at rest length; returns (duration, states at the times tau * duration), or None when it never
-    lifts off."""
+    lifts off within ``max_time`` (the paper's hopper's seconds, in the hopper's times)."""
     p = params.as_array()
     fx, fz = foot
     L0 = params.leg_length
-    h = 1e-4
+    units = units_of(params)
+    h, max_time = 1e-4 * units.time, max_time * units.time
     s, t = tuple(map(float, s0)), 0.0
     duration = None
     while t < max_time:
@@ -83,7 +85,8 @@ def _plausible(knots_out, foot, params: SlipParams) -> bool:
     if not (np.all(np.isfinite(path)) and math.isfinite(duration)):
         return False
     legs = np.hypot(path[:, 0] - foot[0], path[:, 1] - foot[1])
-    return bool(path[-1, 3] > 0.05 and np.all(path[:, 2] > 0.05) and legs.min() > params.min_leg_length
+    slow = 0.05 * units_of(params).speed
+    return bool(path[-1, 3] > slow and np.all(path[:, 2] > slow) and legs.min() > params.min_leg_length
                 and duration < 3 * math.pi / params.natural_frequency)
 
 
@@ -108,9 +111,11 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
     that hop's stance (integrated, or a symmetric one where it stalls or bottoms out) and re-anchors the next
     apex: midway between the two footholds, as high above the higher of their segments as the start was above
     its ground, and as fast as the start's energy allows there (the SLIP conserves energy). With
-    ``reanchor=False`` the chain goes on from that hop's liftoff instead."""
-    controller = controller or default_controller()
+    ``reanchor=False`` the chain goes on from that hop's liftoff instead. Lengths and speeds here are the paper's
+    hopper's in the hopper's units."""
+    controller = (controller or default_controller()).for_params(params)
     L0, g = params.leg_length, params.gravity
+    units = units_of(params)
     apex = ApexState(*map(float, apex))
     footholds = np.asarray(footholds, dtype=np.float64)
     n = footholds.size
@@ -120,7 +125,7 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
     apexes[0] = apex
     limit = 0.97 * math.atan(params.friction)
     energy = g * apex.z + 0.5 * apex.xdot ** 2                       # per unit mass
-    above = max(apex.z - terrain.height_at(apex.x), L0 + 0.15)       # apex height above the ground
+    above = max(apex.z - terrain.height_at(apex.x), L0 + 0.15 * units.length)   # apex height above the ground
     fast_ok, fast_failure = True, ""
     for i in range(n):
         a = ApexState(*apexes[i])
@@ -131,7 +136,7 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
         foot = (s0[0] + L0 * math.sin(theta), h)
         knots_out = _stance_knots(s0, foot, params, tau)
         hop = step_batch(apexes[i], [theta], terrain, params).result(0)
-        lands = hop.ok and abs(hop.touchdown_x - footholds[i]) < SEED_TOLERANCE
+        lands = hop.ok and abs(hop.touchdown_x - footholds[i]) < SEED_TOLERANCE * units.length
         if lands and knots_out is not None:
             # a hop the fast step map executes: its stance is the integrated one, its apex the step map's
             angles[i], falls[i], durs[i], feet[i], stance[i] = theta, tf, knots_out[0], foot[0], knots_out[1]
@@ -147,14 +152,14 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
         angles[i], falls[i], durs[i], feet[i], stance[i] = theta, tf, dur, foot[0], path
         if not reanchor:  # go on from the liftoff
             lo = path[-1]
-            zd, xd = max(lo[3], 0.05), max(lo[2], 0.05)
+            zd, xd = max(lo[3], 0.05 * units.speed), max(lo[2], 0.05 * units.speed)
             apexes[i + 1] = (lo[0] + xd * zd / g, lo[1] + zd * zd / (2 * g), xd)
             continue
         # re-anchor the next apex on the seed's footholds
         nxt = footholds[i + 1] if i + 1 < n else footholds[i] + (footholds[i] - (footholds[i - 1] if i else a.x))
         top = max(h, segs[i + 1].height if i + 1 < n else h)
         z = top + above
-        v = min(max(math.sqrt(max(2 * (energy - g * z), 0.0)), 0.5), 3.5)
+        v = min(max(math.sqrt(max(2 * (energy - g * z), 0.0)), 0.5 * units.speed), 3.5 * units.speed)
         apexes[i + 1] = (0.5 * (footholds[i] + nxt), z, v)
     return Guess(angles, falls, feet, durs, stance, apexes, fast_ok, fast_failure)
 

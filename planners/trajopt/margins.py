@@ -36,7 +36,7 @@ def add_margins(program) -> dict:
             binding.evaluator().SetGradientSparsityPattern(
                 [(k, c) for k in range(K - 1) for c in (2 * k, 2 * k + 1, 2 * (K - 1), 2 * (K - 1) + 1)])
             program.groups.setdefault("stroke_margin", []).append(binding)
-        prog.AddLinearCost(-w.stroke / STROKE_SCALE * m)
+        prog.AddLinearCost(-w.stroke / (STROKE_SCALE * program.units.length) * m)
     if w.friction:
         m = margins["friction"] = prog.NewContinuousVariables(1, "m_friction")[0]
         prog.AddBoundingBoxConstraint(0.0, mu, m)

@@ -44,6 +44,7 @@ import numpy as np
 from drakeslip import SlipParams, Terrain
 from drakeslip import dynamics as dyn
 from drakeslip.state import as_apex
+from drakeslip.units import units_of
 from planners.trajopt.autodiff import Dual, dual_constraint, generic
 from planners.trajopt.collocation import defect_sparsity, interior_leg_lengths, stance_defects
 from planners.trajopt.config import ANGLE_SCALE, EDGE_SCALE, SPEED_SCALE, TrajoptConfig, TrajoptError
@@ -107,7 +108,8 @@ class SlipTrajopt:
         self.terrain = terrain
         self.segs = list(segs)
         self.params = params = params or SlipParams()
-        self.config = cfg = config or TrajoptConfig()
+        self.units = units = units_of(params)
+        self.config = cfg = (config or TrajoptConfig()).for_hopper(units)
         self.target_x = float(target_x)
         if not self.segs:
             raise TrajoptError("no footholds to optimize")
@@ -140,7 +142,7 @@ class SlipTrajopt:
             S, th, tf, f, T = self.S[i], self.theta[i], self.tf[i], self.foot[i], self.dur[i]
             h = seg.height
             prog.AddBoundingBoxConstraint(-limit, limit, th)
-            prog.AddBoundingBoxConstraint(0.01, 2.0, tf)
+            prog.AddBoundingBoxConstraint(0.01 * units.time, 2.0 * units.time, tf)
             prog.AddBoundingBoxConstraint(0.3 * half, 3.0 * half, T)
             add("foothold_segment", prog.AddBoundingBoxConstraint(seg.lo + cfg.edge_margin,
                                                                   seg.hi - cfg.edge_margin, f))
@@ -150,7 +152,7 @@ class SlipTrajopt:
             fx, fz = foot_pos(S[0, 0], S[0, 1], th, p)
             add("foot_on_terrain", _add_expressions(prog, [fx - f, fz - h], 0, 0))
             add("leg_loads", _add_expressions(prog, leg_rate(S[0, 0], S[0, 1], S[0, 2], S[0, 3], f, h), -np.inf,
-                                              -1e-3))
+                                              -1e-3 * units.speed))
             # stance: collocation of the shared stance equations
             variables = np.concatenate([S.reshape(-1), [f, T]])
             defects = dual_constraint(stance_defects(cfg.collocation, K, params, h), 4 * K)
@@ -176,7 +178,7 @@ class SlipTrajopt:
             prog.AddBoundingBoxConstraint(cfg.min_stance_speed, np.inf, S[:, 2])
             x, z, xd, zd = S[K]
             add("liftoff", _add_expressions(prog, leg_len(x, z, f, h), L0, L0))
-            prog.AddBoundingBoxConstraint(0.05, np.inf, zd)  # leaves the ground upward: an apex follows
+            prog.AddBoundingBoxConstraint(0.05 * units.speed, np.inf, zd)  # leaves the ground upward: an apex follows
             # flight to the next apex, in closed form
             A = self.A[i]
             add("apex", _add_expressions(prog, [A[0] - (x + xd * zd / g), A[1] - (z + zd * zd / (2 * g)), A[2] - xd],
@@ -257,22 +259,24 @@ class SlipTrajopt:
         return variables, dual_constraint(clearance, n_out), n_out
 
     def _add_costs(self):
-        w, N = self.config.objective, self.N
+        w, N, units = self.config.objective, self.N, self.units
+        edge_scale, speed_scale = EDGE_SCALE * units.length, SPEED_SCALE * units.speed
         if w.edge:
             for i, seg in enumerate(self.segs):
                 for edge in (seg.lo, seg.hi):
                     if math.isfinite(edge):
-                        self.prog.AddCost(w.edge * EDGE_SCALE ** 2 / ((self.foot[i] - edge) ** 2))
+                        self.prog.AddCost(w.edge * edge_scale ** 2 / ((self.foot[i] - edge) ** 2))
         # (sums built term by term: numpy arithmetic on arrays of symbolic variables trips spurious FP warnings)
         if w.angle and N > 1:
             self.prog.AddQuadraticCost(sum((w.angle / ANGLE_SCALE ** 2) * (self.theta[i + 1] - self.theta[i]) ** 2
                                            for i in range(N - 1)), is_convex=True)
         if w.speed:
             v = [self.apex0.xdot] + list(self.A[:, 2])
-            self.prog.AddQuadraticCost(sum((w.speed / SPEED_SCALE ** 2) * (v[i + 1] - v[i]) ** 2 for i in range(N)),
+            self.prog.AddQuadraticCost(sum((w.speed / speed_scale ** 2) * (v[i + 1] - v[i]) ** 2 for i in range(N)),
                                        is_convex=True)
         if w.progress:
-            span = max(self.target_x - self.apex0.x, 1.0) if math.isfinite(self.target_x) else 1.0
+            unit = 1.0 * units.length   # a metre of progress for the paper's hopper
+            span = max(self.target_x - self.apex0.x, unit) if math.isfinite(self.target_x) else unit
             self.prog.AddLinearCost(-w.progress * (self.A[N - 1, 0] - self.apex0.x) / span)
 
     # -- values ----------------------------------------------------------------------------------------------

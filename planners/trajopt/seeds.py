@@ -23,9 +23,9 @@ from planners.trajopt.config import COLD_OVERSHOOT, COLD_STRIDES, MULTI_START, S
 
 def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     """A nominal uniform gait: the first foothold at the neutral point of the start apex on the ground under it,
-    then equal steps (about the neutral gait's stride at the start speed) to COLD_OVERSHOOT past the target,
-    on whatever segments those land. ``extra_hops`` more (or fewer, down to two footholds) equal steps cover the
-    same distance."""
+    then equal steps (about the neutral gait's stride at the start speed) to COLD_OVERSHOOT (in the hopper's
+    lengths) past the target, on whatever segments those land. ``extra_hops`` more (or fewer, down to two
+    footholds) equal steps cover the same distance."""
     from planners.search.heuristic import interpolate, neutral_gait
 
     apex, terrain = problem.apex, problem.terrain
@@ -33,7 +33,7 @@ def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     drop = apex.z - terrain.height_at(apex.x)
     first = apex.x + interpolate(offsets, apex.xdot, drop)
     stride = interpolate(advances, apex.xdot, drop)
-    last = max(problem.target_x + COLD_OVERSHOOT, first)
+    last = max(problem.target_x + COLD_OVERSHOOT * problem.units.length, first)
     nominal = 1 + max(0, math.ceil((last - first) / stride - 1e-9))
     n = max(nominal + extra_hops, min(nominal, 2))  # fewer hops, but still from the first foothold to the last
     return first + (last - first) * np.arange(n) / max(n - 1, 1)

@@ -95,6 +95,7 @@ def optimize_start(problem: Problem, seed, sample: int, config: TrajoptConfig, t
     fresh Hessian approximation. ``solve_time_s`` and ``iterations`` add up every attempt."""
     record = {"seed": seed if isinstance(seed, str) else "footholds", "target_x": problem.target_x,
               "converged": False, "verified": False, "error": None}
+    config = config.for_hopper(problem.units)
     t0 = time.perf_counter()
     try:
         if isinstance(seed, str):

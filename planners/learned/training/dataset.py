@@ -56,7 +56,8 @@ def instance(cfg: DatasetConfig, i: int):
 
 
 def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
-    """The search of instance i, with the dataset's friction; returns (SearchResult, planner horizon)."""
+    """The search of instance i, with the dataset's friction; returns (SearchResult, the x its sequences aim to
+    pass)."""
     from planners.search.angle_space import AngleSpacePlanner
     from planners.search.step_space import StepSpacePlanner
 
@@ -70,7 +71,8 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
                                    n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
     else:
         planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
-    return planner.search(apex, terrain, cfg.goal_x, params), planner.horizon
+    return planner.search(apex, terrain, cfg.goal_x, params), planner.problem(apex, terrain, cfg.goal_x, params,
+                                                                              0.0).target_x
 
 
 def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
@@ -79,9 +81,8 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
     if cfg.planner == "expert":
         return expert_sequences(cfg, i)
     family, terrain, apex = instance(cfg, i)
-    result, horizon = search_tree(cfg, i, apex, terrain)
+    result, target = search_tree(cfg, i, apex, terrain)
     enc = encode_window(terrain, apex)
-    target = min(cfg.goal_x, apex.x + horizon - 1.0)
     need = apex.x + cfg.min_progress * (target - apex.x)
     n_bins = enc.terrain.size * cfg.subcells
     tree = result.tree

@@ -29,6 +29,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, StepLengthController, Terrain
 from drakeslip.rollout import rollout
+from drakeslip.units import units_of
 
 from planners.search.step_space import StepSpacePlanner
 from planners.search.tree import run_depth
@@ -125,7 +126,7 @@ class GoalReachingExpert:
         goal, a state with no goal-reaching candidate (its label has choice -1) or a failed hop."""
         states = []
         for _ in range(max_hops):
-            window = terrain.perceived(apex.x)
+            window = terrain.perceived(apex.x, *units_of(params).window)
             label = self.label(apex, window, goal_x, params)
             if label.choice < 0:
                 states.append((apex, label, float("nan")))
