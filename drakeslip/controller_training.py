@@ -95,8 +95,11 @@ def _invertible(v, drop, theta, params: SlipParams):
 
 
 def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: ControllerConfig = ControllerConfig(),
-          train_config: TrainConfig = TrainConfig(), seed: int = 0, log=print) -> StepLengthController:
-    """Fit the MLP with Adam and a cosine learning-rate schedule on the mean squared angle error."""
+          train_config: TrainConfig = TrainConfig(), seed: int = 0, log=print,
+          device: str = "cpu") -> StepLengthController:
+    """Fit the MLP with Adam and a cosine learning-rate schedule on the mean squared angle error, on torch
+    ``device`` (drakeslip.devices.torch_device). The split and the batches are drawn on the CPU from ``seed``, so
+    they are the same on every device."""
     import torch
 
     torch.set_num_threads(1)  # a 3-64-64-64-1 MLP gains nothing from more; OpenMP spinning on a busy machine costs 10x
@@ -106,20 +109,20 @@ def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: Cont
     n_val = max(1, int(len(theta) * train_config.val_fraction))
     val, tr = order[:n_val], order[n_val:]
     mean, std = feats[tr].mean(0), feats[tr].std(0)
-    x = torch.tensor((feats - mean) / std, dtype=torch.float32)
-    y = torch.tensor(theta / config.max_angle, dtype=torch.float32)
-    model = network(config)
+    x = torch.tensor((feats - mean) / std, dtype=torch.float32, device=device)
+    y = torch.tensor(theta / config.max_angle, dtype=torch.float32, device=device)
+    model = network(config).to(device)
     opt = torch.optim.Adam(model.parameters(), lr=train_config.lr, weight_decay=train_config.weight_decay)
     steps_per_epoch = math.ceil(len(tr) / train_config.batch_size)
     sched = torch.optim.lr_scheduler.CosineAnnealingLR(opt, T_max=train_config.epochs * steps_per_epoch)
     gen = torch.Generator().manual_seed(seed)
-    tr_t, val_t = torch.tensor(tr), torch.tensor(val)
+    tr_t, val_t = torch.tensor(tr), torch.tensor(val, device=device)
     t0 = time.perf_counter()
     for epoch in range(train_config.epochs):
         model.train()
         perm = tr_t[torch.randperm(len(tr_t), generator=gen)]
         for i in range(steps_per_epoch):
-            idx = perm[i * train_config.batch_size:(i + 1) * train_config.batch_size]
+            idx = perm[i * train_config.batch_size:(i + 1) * train_config.batch_size].to(device)
             loss = torch.mean((model(x[idx]) - y[idx]) ** 2)
             opt.zero_grad(set_to_none=True)
             loss.backward()
@@ -131,5 +134,5 @@ def train(feats: np.ndarray, theta: np.ndarray, params: SlipParams, config: Cont
                 val_rmse = torch.sqrt(torch.mean((model(x[val_t]) - y[val_t]) ** 2)).item() * config.max_angle
             log(f"epoch {epoch:4d}  train mse {loss.item():.3e}  val angle rmse {val_rmse:.2e} rad  "
                 f"({time.perf_counter() - t0:.0f} s)", flush=True)
-    return StepLengthController({k: v.detach().numpy() for k, v in model.state_dict().items()}, config, mean, std,
+    return StepLengthController({k: v.detach().cpu().numpy() for k, v in model.state_dict().items()}, config, mean, std,
                                 params)

@@ -1,22 +1,17 @@
 """Generate the footstep dataset (the paper's Table I) by running a search planner on random terrains.
 
-    python3 examples/generate_dataset.py --out data/footsteps --jobs 2      # Table I: the committed model's data
-    python3 examples/generate_dataset.py --planner step --min-steps 3 --start-x -1 --heights 0.55,1.1 \\
-        --speeds 0.4,3.2 --out data/steps --jobs 2                         # the Step-space ablation (README)
-    python3 examples/generate_dataset.py --planner expert --policy out/lstm_expert_round0.pt --explore 0.1 \\
-        --subcells 4 --min-steps 1 --start-x -1 --heights 0.55,1.1 --speeds 0.4,3.2 --friction 0.8 \\
-        --terrains 500 --seed 1 --out data/dagger1 --jobs 2     # a DAgger round (docs/results.md, "DAgger")
-    python3 examples/generate_dataset.py --planner expert --look-ahead --families ditch \\
-        --policy planners/weights/lstm_expert.pt --explore 0.1 --subcells 4 --min-steps 1 --start-x -1 \\
-        --heights 0.55,1.1 --speeds 0.4,3.2 --friction 0.8 --terrains 250 --seed 3 --out data/lookahead1 --jobs 2
-                                              # ditch states labelled by the look-ahead expert (docs/results.md)
+    python3 examples/generate_dataset.py --out data/footsteps --jobs 2      # Table I: the paper model's data
+    python3 examples/generate_dataset.py --planner step --subcells 4 --min-steps 3 --start-x -1 \
+        --heights 0.55,1.1 --speeds 0.4,3.2 --out data/subcell --jobs 2    # the sub-cell model's data
+    python3 examples/train_expert.py --dry-run   # the expert's rollouts and DAgger rounds (--planner expert)
     python3 examples/generate_dataset.py --out data/footsteps --executor ray --address auto --jobs 64
 
 Each shard is a task of the job runner (drakeslip.jobs): it runs in this process (--jobs 1), in --jobs local
 worker processes, or on a Ray cluster with --jobs shards in flight, and returns its arrays; this process writes
 each shard atomically as it arrives, so the workers need no filesystem shared with it, and rerunning the same
 command resumes: only the missing shards are generated. OUT/config.json records the settings; a folder made with
-other settings is refused. The shards are the same whatever the executor and --jobs.
+other settings is refused. The shards are the same whatever the executor and --jobs. The recipes that train the
+committed models from these datasets are in docs/reproduction.md, "Regenerating the weights".
 """
 from __future__ import annotations
 

@@ -4,7 +4,9 @@
 
 Logs train/validation loss and top-1 / within-1-cell accuracy each epoch, checkpoints every epoch (rerun
 the same command to resume) and writes the best weights to --out (default: the committed
-planners/weights/lstm.pt, the paper's model that planners.make("lstm@paper") loads).
+planners/weights/lstm_paper.pt, the paper's model that planners.make("lstm@paper") loads); the SHA256SUMS manifest of
+--out's folder, if it has one, gets the file's new digest. Training runs on --device (default: CUDA when torch
+sees a GPU, else the CPU).
 
 Exit status: 0 when training finished, 2 for a usage or input error (a missing or malformed dataset, damaged
 --init weights, an unavailable device).
@@ -16,6 +18,7 @@ import os
 import sys
 import time
 
+from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
 from planners.learned.config import ModelConfig
 from planners.learned.training.config import TrainConfig
@@ -68,7 +71,7 @@ def main(argv=None) -> int:
                     help="train on the first N sequences only (0: all)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=d.seed,
                     help="seeds the split, the batches and the network")
-    ap.add_argument("--device", default="auto", help="torch device: cpu, cuda, cuda:N, or auto (cuda when available)")
+    ap.add_argument("--device", default="auto", help=DEVICE_HELP)
     ap.add_argument("--threads", type=cli.non_negative_int, default=0, help="torch CPU threads (0: torch's default)")
     ap.add_argument("--hidden", type=cli.positive_int, default=ModelConfig.hidden,
                     help="LSTM units per layer (110: the paper)")
@@ -81,14 +84,10 @@ def main(argv=None) -> int:
     from planners.learned.model import load_checkpoint
     from planners.learned.training.train_lstm import train
 
-    device = "cuda" if args.device == "auto" and torch.cuda.is_available() else \
-        "cpu" if args.device == "auto" else args.device
     try:
-        kind = torch.device(device).type
-    except RuntimeError as error:
+        device = torch_device(args.device)
+    except ValueError as error:
         ap.error(f"--device: {error}")
-    if kind == "cuda" and not torch.cuda.is_available():
-        ap.error(f"--device {device}: CUDA is not available on this machine")
     if args.init:
         try:
             load_checkpoint(args.init)

@@ -1,6 +1,6 @@
 """Train the foothold ranker (planners/learned/ranker.py) in DAgger rounds: the committed planners/weights/ranker.pt.
 
-    python3 examples/train_ranker.py --out planners/weights/ranker.pt --jobs 2 --threads 2
+    python3 examples/train_ranker.py --out planners/weights/ranker.pt --jobs 2 --threads 2 [--device cuda]
     python3 examples/train_ranker.py --out planners/weights/ranker.pt --executor ray --address auto --jobs 64
 
 Round r draws ``--terrains`` fresh terrains of each family (terrain seeds SEED + 10000 r + 1000 f + i, f the
@@ -8,7 +8,9 @@ family's index, so no round reuses a terrain and none meets the evaluation suite
 one-step mode planner with the expert-trained footstep model from every case (the suites' ten start states) and
 records each state's most probable first footholds with their room a hop later
 (planners/learned/training/train_ranker.py); round 0 follows the mode, later rounds the previous round's ranker.
-After each round the ranker is trained afresh on all rounds so far, in this process.
+After each round the ranker is trained afresh on all rounds so far, in this process, on --device (default: CUDA
+when torch sees a GPU, else the CPU). The last round's weights are copied to --out, and the SHA256SUMS manifest of
+--out's folder, if it has one, gets the file's new digest.
 
 A shard of --shard-terrains terrains is a task of the job runner (drakeslip.jobs): it runs in this process
 (--jobs 1), in --jobs local worker processes, or on a Ray cluster with --jobs shards in flight, gets the weights
@@ -26,7 +28,8 @@ import time
 from pathlib import Path
 
 from drakeslip.jobs import cli
-from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.devices import DEVICE_HELP, torch_device
+from drakeslip.jobs.files import atomic_write, read_json, record_digest
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from planners.checkpoints import EXPERT_WEIGHTS
 from planners.learned.training.config import RankerTrainConfig
@@ -95,6 +98,7 @@ def parser() -> cli.ArgumentParser:
                     help="training epochs per round")
     ap.add_argument("--threads", type=cli.non_negative_int, default=0,
                     help="torch threads for training (0: torch's default)")
+    ap.add_argument("--device", default="auto", help=DEVICE_HELP)
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
     return ap
@@ -107,6 +111,10 @@ def main(argv=None):
         check_families(args.families)
     except ValueError as error:
         ap.error(f"--families: {error}")
+    try:
+        device = torch_device(args.device)
+    except ValueError as error:
+        ap.error(f"--device: {error}")
     executor = cli.executor(args)
     data = Path(args.data_dir)
     # as the folder records them: the paths and the family list as typed
@@ -127,7 +135,7 @@ def main(argv=None):
     from planners.learned.ranker import save_ranker
     from planners.learned.training.train_ranker import collect_shard, shard_store, train
 
-    cfg = RankerTrainConfig(epochs=args.epochs, threads=args.threads)
+    cfg = RankerTrainConfig(epochs=args.epochs, threads=args.threads, device=device)
     store, model = shard_store(data), Path(args.model).read_bytes()
     shards, ranker = [], None
     for r in range(args.rounds):
@@ -159,6 +167,7 @@ def main(argv=None):
             print(json.dumps({"round": r, **summary}))
     with atomic_write(args.out) as f:
         f.write(ranker.read_bytes())
+    record_digest(args.out)
     print(f"wrote {args.out}")
 
 

@@ -64,7 +64,7 @@ def test_another_hopper_crosses_a_drawn_ditch_suite_case_in_the_loop(controller,
     planner = make_planners({label: None}, controller)[label]
     result = run_case(planner, controller, case, suite.goal_x, params, ClosedLoopConfig(backend="fast"))
     assert result["success"], result["failure"]
-    assert result["final_x"] >= suite.goal_x == pytest.approx(10.0 * 1.4)
+    assert result["final_x"] >= suite.goal_x > case.apex.x + 10.0   # the course is longer than the paper's 11 m
 
 
 @pytest.mark.slow

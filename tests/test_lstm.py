@@ -228,6 +228,9 @@ def test_tiny_end_to_end_train_and_plan(tiny_dataset, tmp_path):
     assert len(summary["history"]) == 2 and np.isfinite(summary["best_val_loss"])
     cfg.epochs = 3  # resume continues from the checkpoint instead of starting over
     assert len(train(cfg, log=lambda *_: None)["history"]) == 3
+    other = TrainConfig(**{**cfg.__dict__, "lr": cfg.lr / 2, "epochs": 4})   # another run's settings: not resumed
+    with pytest.raises(ValueError, match="another training setup"):
+        train(other, log=lambda *_: None)
     import planners
 
     planner = planners.make("lstm@paper", model=cfg.out)

@@ -5,6 +5,7 @@ import pytest
 import torch
 
 import drakeslip as ds
+from drakeslip.jobs.files import MANIFEST, manifest_entries, sha256
 from planners import make
 from planners.learned.ranker import N_FEATURES, ROOM_CAP, FootholdRanker, RankerNet, candidate_features, save_ranker
 from planners.learned.training.labels import OneHopRoom
@@ -103,7 +104,9 @@ def test_ranker_training_resumes_without_redoing_finished_work(tmp_path, example
     script = example("train_ranker")
     args = ["--data-dir", str(tmp_path / "data"), "--out", str(tmp_path / "ranker.pt"), "--rounds", "2",
             "--terrains", "1", "--families", "ditch", "--epochs", "2", "--jobs", "1"]
+    (tmp_path / MANIFEST).write_text(f"{'0' * 64}  ranker.pt\n")  # --out beside a manifest: its entry is rewritten
     script.main(args)
+    assert manifest_entries(tmp_path) == {"ranker.pt": sha256(tmp_path / "ranker.pt")}
     shards = sorted((tmp_path / "data").glob("*.npz"))
     assert [p.name for p in shards] == ["round0-ditch-100000.npz", "round1-ditch-110000.npz"]
     before = {p.name: p.stat().st_mtime_ns for p in shards}

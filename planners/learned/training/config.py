@@ -100,6 +100,7 @@ class RankerTrainConfig:
     val_fraction: float = 0.1
     seed: int = 0
     threads: int = 0                    # 0: torch's default
+    device: str = "cpu"                 # a torch device (drakeslip.devices.torch_device)
 
 
 @dataclass

@@ -7,6 +7,7 @@ own distributions, so training on both keeps it calibrated to soft inputs.
 """
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 import os
@@ -16,6 +17,8 @@ from dataclasses import asdict
 import numpy as np
 import torch
 import torch.nn.functional as F
+
+from drakeslip.jobs.files import sha256
 
 from planners.learned.inputs import HEIGHT_FLOOR, pad_steps
 from planners.learned.config import ModelConfig
@@ -126,6 +129,22 @@ def evaluate(model: FootstepModel, data: dict, idx: np.ndarray, cfg: TrainConfig
     return {"loss": total / max(count, 1), "top1": top1 / max(count, 1), "within1": near / max(count, 1)}
 
 
+def training_setup(cfg: TrainConfig, model_config: ModelConfig) -> str:
+    """A digest of what a training run's result depends on besides its length and device: the dataset's shards
+    (their bytes, and any ditch selector), the model's configuration, the weights it starts from and every other
+    training setting. A checkpoint resumes only the run that wrote it."""
+    digest = hashlib.sha256()
+    for one in cfg.data.split(","):
+        folder, _, select = one.partition(":")
+        digest.update(select.encode())
+        for name in sorted(f for f in os.listdir(folder) if f.endswith(".npz")):
+            digest.update(name.encode() + sha256(os.path.join(folder, name)).encode())
+    settings = {k: v for k, v in asdict(cfg).items() if k not in ("data", "epochs", "device", "checkpoint", "out")}
+    settings["init"] = sha256(cfg.init) if cfg.init else ""
+    digest.update(json.dumps([settings, asdict(model_config)], sort_keys=True, default=str).encode())
+    return digest.hexdigest()
+
+
 def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
           width: tuple = (ModelConfig.hidden, ModelConfig.channels)) -> dict:
     """Train (or resume from ``cfg.checkpoint``) and write the final weights to ``cfg.out``. The model's bins
@@ -153,8 +172,12 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
 
     opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
     history, start_epoch, best = [], 0, math.inf
+    setup = training_setup(cfg, model_config)
     if cfg.checkpoint and os.path.exists(cfg.checkpoint):
         model, payload = load_checkpoint(cfg.checkpoint)
+        if payload.get("setup") != setup:
+            raise ValueError(f"checkpoint {cfg.checkpoint} was written by another training setup (dataset, model or "
+                             "settings other than --epochs and --device); remove it or give another --checkpoint")
         model = model.to(cfg.device).train()   # the optimizer's state follows its parameters' device
         opt = torch.optim.AdamW(model.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
         opt.load_state_dict(payload["optimizer"])
@@ -185,5 +208,5 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
             save_checkpoint(cfg.out, model, {"train_config": asdict(cfg), "val": val})
         if cfg.checkpoint:
             save_checkpoint(cfg.checkpoint, model, {"optimizer": opt.state_dict(), "epoch": epoch,
-                                                    "history": history, "best_val": best})
+                                                    "history": history, "best_val": best, "setup": setup})
     return {"history": history, "best_val_loss": best, "n_train": int(train_idx.size), "n_val": int(n_val)}

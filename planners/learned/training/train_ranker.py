@@ -99,23 +99,24 @@ def shard_store(folder) -> FileStore:
 
 
 def train(features: np.ndarray, rooms: np.ndarray, cfg: RankerTrainConfig, log=print):
-    """(net, feature mean, feature std, summary) from recorded states; the weights kept are those of the epoch
-    with the lowest validation loss. Accuracy: how often the top-scored candidate has the most room (the mode's,
-    always taking the first candidate, is printed beside it)."""
+    """(net on the CPU, feature mean, feature std, summary) from recorded states, trained on ``cfg.device``; the
+    weights kept are those of the epoch with the lowest validation loss. Accuracy: how often the top-scored
+    candidate has the most room (the mode's, always taking the first candidate, is printed beside it). The split
+    and the batches are drawn on the CPU from ``cfg.seed``, so they are the same on every device."""
     if cfg.threads:
         torch.set_num_threads(cfg.threads)
     torch.manual_seed(cfg.seed)
     rng = np.random.default_rng(cfg.seed)
     valid = ~np.isnan(rooms)
     mean, std = features[valid].mean(0), features[valid].std(0) + 1e-6
-    x = torch.tensor(np.where(valid[..., None], (features - mean) / std, 0.0), dtype=torch.float32)
+    x = torch.tensor(np.where(valid[..., None], (features - mean) / std, 0.0), dtype=torch.float32, device=cfg.device)
     room = np.where(valid, rooms, -np.inf)
-    best = torch.tensor((room == room.max(1, keepdims=True)) & valid)
-    valid = torch.tensor(valid)
+    best = torch.tensor((room == room.max(1, keepdims=True)) & valid, device=cfg.device)
+    valid = torch.tensor(valid, device=cfg.device)
     order = rng.permutation(len(x))
     n_val = max(1, int(cfg.val_fraction * len(x)))
-    val, tr = torch.tensor(order[:n_val]), order[n_val:]
-    net = RankerNet(cfg.hidden)
+    val, tr = torch.tensor(order[:n_val], device=cfg.device), order[n_val:]
+    net = RankerNet(cfg.hidden).to(cfg.device)
     opt = torch.optim.Adam(net.parameters(), lr=cfg.lr, weight_decay=cfg.weight_decay)
 
     def loss_and_accuracy(idx):
@@ -130,7 +131,7 @@ def train(features: np.ndarray, rooms: np.ndarray, cfg: RankerTrainConfig, log=p
         net.train()
         rng.shuffle(tr)
         for b in range(0, len(tr), cfg.batch_size):
-            loss, _ = loss_and_accuracy(torch.tensor(tr[b:b + cfg.batch_size]))
+            loss, _ = loss_and_accuracy(torch.tensor(tr[b:b + cfg.batch_size], device=cfg.device))
             opt.zero_grad()
             loss.backward()
             opt.step()
@@ -145,7 +146,7 @@ def train(features: np.ndarray, rooms: np.ndarray, cfg: RankerTrainConfig, log=p
             summary = {"best_val_loss": val_loss.item(), "best_epoch": epoch, "val_accuracy": val_accuracy,
                        "mode_accuracy": mode_accuracy}
     net.load_state_dict(kept)
-    net.eval()
+    net.cpu().eval()
     summary.update(states=len(x), train_seconds=round(time.time() - t0, 1))
     return net, mean, std, summary
 
