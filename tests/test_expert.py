@@ -169,3 +169,23 @@ def test_the_top_k_oracle_is_the_mode_planner_at_k_1_and_picks_a_goal_reaching_f
 
     assert oracle.expert.goal_reaching(label, pick)
     assert not oracle.expert.goal_reaching(label, mode) or room(pick) >= room(mode)
+
+
+def test_a_similar_hoppers_data_are_the_papers_in_its_units():
+    """Data for a hopper 1.4 times as long-legged with the paper's k L0 / (m g): its instances are the paper's
+    scaled (Froude speeds), and its encoded windows, starts and Step-space labels are the paper's: for it the
+    committed models are what training would make."""
+    similar = {"mass": 7.0 * 1.4 ** 3, "leg_length": 0.7, "stiffness": 3200.0 * 1.4 ** 2}
+    paper = DatasetConfig(planner="step", subcells=4, min_steps=1, n_terrains=1, apexes_per_terrain=1,
+                          friction=0.8, seed=4, goal_sequences=2, max_nodes=200)
+    mine = DatasetConfig(**{**paper.__dict__, "hopper": similar})
+    (_, t_paper, a_paper), (_, t_mine, a_mine) = instance(paper, 0), instance(mine, 0)
+    assert t_mine.cell == pytest.approx(1.4 * t_paper.cell) and a_mine.x == pytest.approx(1.4 * a_paper.x)
+    assert a_mine.xdot == pytest.approx(a_paper.xdot * 1.4 ** 0.5)
+    assert a_mine.z - t_mine.height_at(a_mine.x) == pytest.approx(1.4 * (a_paper.z - t_paper.height_at(a_paper.x)))
+    ours, theirs = instance_sequences(mine, 0), instance_sequences(paper, 0)
+    np.testing.assert_allclose(ours["terrain"], theirs["terrain"], atol=1e-5)
+    np.testing.assert_allclose(ours["apex"], theirs["apex"], atol=1e-5)
+    assert np.array_equal(ours["steps"], theirs["steps"]) and np.array_equal(ours["s0"], theirs["s0"])
+    with pytest.raises(ValueError, match="hopper"):
+        DatasetConfig(hopper={"mass": 1.0, "legs": 2})

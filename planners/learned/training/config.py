@@ -7,6 +7,7 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from drakeslip.params import SlipParams
 from drakeslip.terrain import check_families
 
 
@@ -45,6 +46,10 @@ class DatasetConfig:
     expert_look_ahead: bool = False     # "expert": label with the foothold that leaves the most room a hop later
     policy: str = ""                    # "expert": weights of a footstep model whose one-step mode planner the
                                         # rollouts follow where it stays goal-reaching (DAgger; expert.py)
+    hopper: dict | None = None          # the SlipParams fields of the hopper the data are for (None: the paper's):
+                                        # its terrains, starts and goal are the paper's made its own as suites
+                                        # drawn for it are (planners.formats.suite_draw), its ground's friction is
+                                        # ``friction``; the ranges above are in the paper's units
 
     def __post_init__(self):
         if self.planner not in ("angle", "step", "expert"):
@@ -62,6 +67,13 @@ class DatasetConfig:
             if not 0 < lo <= hi:
                 raise ValueError(f"DatasetConfig.{name} must be 0 < low <= high, got {getattr(self, name)!r}")
         check_families(self.families)
+        if self.hopper is not None:
+            if not isinstance(self.hopper, dict):
+                raise ValueError(f"DatasetConfig.hopper must be a dict of SlipParams fields, got {self.hopper!r}")
+            try:
+                SlipParams(**self.hopper)
+            except TypeError as error:
+                raise ValueError(f"DatasetConfig.hopper: {error}") from None
         for name in ("n_terrains", "apexes_per_terrain", "min_steps", "goal_sequences", "branching",
                      "instances_per_shard", "max_paths_per_instance", "max_steps", "subcells", "expert_max_nodes"):
             if getattr(self, name) < 1:

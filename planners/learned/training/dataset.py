@@ -1,13 +1,14 @@
 """Training data for the footstep model: search trees turned into footstep sequences (Table I).
 
-Each instance is one terrain and one initial apex. Its search tree (Angle-space, as in the paper, or
-Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and every root-to-leaf path with at
-least ``min_steps`` footholds that covers at least ``min_progress`` of the distance to the search target becomes a
-sequence: the encoded perception window at the initial apex and the window cells of its footholds. With every
-step goes its viable set, the cells of all the footholds the search found viable from the same apex (the step's
-siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight). With
-``planner="expert"`` the sequences come from rollouts of the goal-reaching expert instead (``expert_sequences``),
-whose viable sets are each state's goal-reaching footholds.
+Each instance is one terrain and one initial apex, for the paper's hopper or another (``DatasetConfig.hopper``:
+terrains and starts made the hopper's as suites drawn for it are, windows encoded in its units). Its search tree
+(Angle-space, as in the paper, or Step-space, see DatasetConfig.planner) is grown to ``goal_sequences`` goals, and
+every root-to-leaf path with at least ``min_steps`` footholds that covers at least ``min_progress`` of the distance
+to the search target becomes a sequence: the encoded perception window at the initial apex and the window cells
+of its footholds. With every step goes its viable set, the cells of all the footholds the search found viable from
+the same apex (the step's siblings in the tree), which training can use as soft labels (TrainConfig.viable_weight).
+With ``planner="expert"`` the sequences come from rollouts of the goal-reaching expert instead
+(``expert_sequences``), whose viable sets are each state's goal-reaching footholds.
 
 Instances are grouped into shards, each a task of the job runner (``drakeslip.jobs``): ``make_shard`` computes a
 shard's arrays wherever the executor runs it (this process, local workers, a Ray cluster) and returns them, and
@@ -31,27 +32,48 @@ import numpy as np
 from drakeslip import ApexState, SlipParams
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.jobs.runner import FileStore, run
-from drakeslip.terrain import family as terrain_family
+from drakeslip.terrain import check_families
+from drakeslip.units import units_of
 
 from planners.learned.inputs import encode_window, pad_steps
 from planners.learned.training.config import DatasetConfig
 
-__all__ = ["DatasetConfig", "instance", "search_tree", "instance_sequences", "expert_sequences", "make_shard",
-           "save_shard", "shard_store", "generate", "statistics", "write_shard", "shard_path", "write_manifest",
+__all__ = ["DatasetConfig", "dataset_hopper", "dataset_goal", "instance", "search_tree", "instance_sequences",
+           "expert_sequences", "make_shard", "save_shard", "shard_store", "generate", "statistics", "write_shard", "shard_path", "write_manifest",
            "pending_shards", "count_sequences", "local_copy"]
 
 
+def dataset_hopper(cfg: DatasetConfig) -> SlipParams:
+    """The hopper the data are for (``cfg.hopper``, default the paper's) on ground of the dataset's friction."""
+    return (SlipParams() if cfg.hopper is None else SlipParams(**cfg.hopper)).with_friction(cfg.friction)
+
+
+def dataset_goal(cfg: DatasetConfig) -> float:
+    """The goal of every instance [m]: ``cfg.goal_x`` in the hopper's lengths."""
+    return cfg.goal_x * units_of(dataset_hopper(cfg)).length
+
+
 def instance(cfg: DatasetConfig, i: int):
-    """Terrain and initial apex of instance i: terrain i // apexes_per_terrain, families alternating."""
+    """Terrain and initial apex of instance i: terrain i // apexes_per_terrain, families alternating. For another
+    hopper than the paper's, the paper's terrain and start made the hopper's as a suite drawn for it makes them
+    (``planners.formats.suite_draw``: lengths in its lengths, terrain heights, start heights and speeds by its
+    physics); for the paper's hopper these are the paper's draws themselves."""
+    from planners.formats.suite_draw import hopper_terrain, start_height_factor, suite_scales
+
+    params = dataset_hopper(cfg)
+    scales = suite_scales(params)
     t = i // cfg.apexes_per_terrain
     family = cfg.families[t % len(cfg.families)]
-    terrain = terrain_family(family)(seed=cfg.seed * 1_000_003 + t)
+    terrain = hopper_terrain(check_families([family])[0], cfg.seed * 1_000_003 + t, scales)
     rng = np.random.default_rng([cfg.seed, i])
     for _ in range(100):  # start over solid ground: near the start or anywhere along the course
         x = rng.uniform(cfg.start_x, 0.5) if rng.random() < 0.25 else rng.uniform(cfg.start_x, cfg.goal_x - 2.0)
+        x *= scales.length
         if not terrain.is_ditch_at(x):
             break
-    apex = ApexState(x, terrain.height_at(x) + rng.uniform(*cfg.height_range), rng.uniform(*cfg.speed_range))
+    above = rng.uniform(*cfg.height_range)
+    above *= scales.length * start_height_factor(params, above)
+    apex = ApexState(x, terrain.height_at(x) + above, rng.uniform(*cfg.speed_range) * scales.speed)
     return family, terrain, apex
 
 
@@ -61,7 +83,7 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
     from planners.search.angle_space import AngleSpacePlanner
     from planners.search.step_space import StepSpacePlanner
 
-    params = SlipParams(friction=cfg.friction)
+    params, goal_x = dataset_hopper(cfg), dataset_goal(cfg)
     budget = {"max_nodes": cfg.max_nodes, "max_time_s": cfg.max_time_s}
     if cfg.planner == "angle":
         planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
@@ -71,8 +93,7 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
                                    n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
     else:
         planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
-    return planner.search(apex, terrain, cfg.goal_x, params), planner.problem(apex, terrain, cfg.goal_x, params,
-                                                                              0.0).target_x
+    return planner.search(apex, terrain, goal_x, params), planner.problem(apex, terrain, goal_x, params, 0.0).target_x
 
 
 def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
@@ -82,7 +103,7 @@ def instance_sequences(cfg: DatasetConfig, i: int) -> dict:
         return expert_sequences(cfg, i)
     family, terrain, apex = instance(cfg, i)
     result, target = search_tree(cfg, i, apex, terrain)
-    enc = encode_window(terrain, apex)
+    enc = encode_window(terrain, apex, units_of(dataset_hopper(cfg)))
     need = apex.x + cfg.min_progress * (target - apex.x)
     n_bins = enc.terrain.size * cfg.subcells
     tree = result.tree
@@ -141,7 +162,7 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
     from planners.learned.training.expert import GoalReachingExpert
 
     family, terrain, apex = instance(cfg, i)
-    params = SlipParams(friction=cfg.friction)
+    params = dataset_hopper(cfg)
     expert = GoalReachingExpert(spacing=terrain.cell / cfg.subcells, max_nodes=cfg.expert_max_nodes,
                                 look_ahead=cfg.expert_look_ahead)
     policy = None
@@ -149,13 +170,13 @@ def expert_sequences(cfg: DatasetConfig, i: int) -> dict:
         from planners.learned.lstm import LSTMPlanner
 
         policy = LSTMPlanner(model=cfg.policy, max_steps=1, ranker=None, controller=expert.controller)
-    states = expert.rollout(apex, terrain, cfg.goal_x, params, np.random.default_rng([cfg.seed, i, 2]), cfg.explore,
-                            policy=policy)
+    states = expert.rollout(apex, terrain, dataset_goal(cfg), params, np.random.default_rng([cfg.seed, i, 2]),
+                            cfg.explore, policy=policy)
     ode_calls = sum(label.ode_calls for _, label, _ in states)
     states = [s for s in states if s[1].choice >= 0]
     encs, steps, viable = [], [], []
     for k, (a, _, _) in enumerate(states):
-        enc = encode_window(terrain, a)
+        enc = encode_window(terrain, a, units_of(params))
         bins, sets = [], []
         for _, label, executed in states[k:k + cfg.max_steps]:
             b = int(enc.bin_of(label.foothold, cfg.subcells))
