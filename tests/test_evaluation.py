@@ -69,7 +69,8 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
     assert run.returncode == 0, run.stderr
     assert "Success %" in run.stdout and "step" in run.stdout
     results = json.loads(out.read_text())
-    assert set(results) == {"suite", "options", "planners", "provenance"}
+    assert set(results) == {"suite", "hopper", "options", "planners", "provenance"}
+    assert results["hopper"]["params"]["mass"] == 7.0     # the suite's hopper: the paper's, as planned for
     assert set(results["planners"]) == {"heuristic", "step"}
     for block in results["planners"].values():
         assert block["config"] == ClosedLoopConfig().to_dict()   # the protocol: noiseless, the paper's period
