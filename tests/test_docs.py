@@ -1,7 +1,11 @@
-"""The pages users read: every example script is documented on a page with a command that runs it, every
-relative link of README.md and docs/*.md leads to a file that exists (and to a heading of it, when it names one),
-and the probe table of docs/verification.md lists exactly the probes of tests/test_probes.py."""
+"""The pages users read: every example script is documented on a page with a command that runs it, every flag of
+a command on a page is one its script takes, every relative link of README.md and docs/*.md leads to a file that
+exists (and to a heading of it, when it names one), and the probe table of docs/verification.md lists exactly the
+probes of tests/test_probes.py."""
+import json
 import re
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -32,6 +36,38 @@ def test_every_example_script_is_run_by_a_command_on_a_page(script):
     """Each script appears on README.md or a docs page in a command line (``python3 examples/NAME.py ...``)."""
     assert f"python3 examples/{script}" in text_of_pages(), (
         f"examples/{script} is not run by any command in README.md or docs/*.md")
+
+
+def help_texts(scripts) -> dict:
+    """Each script's --help, from one interpreter (--help loads no heavy library, tests/test_examples.py)."""
+    probe = f"""
+import contextlib, importlib.util, io, json, sys
+sys.path.insert(0, {str(ROOT)!r})
+texts = {{}}
+for name in {sorted(scripts)!r}:
+    spec = importlib.util.spec_from_file_location(name[:-3], {str(ROOT / "examples")!r} + "/" + name)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        try:
+            module.main(["--help"])
+        except SystemExit:
+            pass
+    texts[name] = out.getvalue()
+print(json.dumps(texts))
+"""
+    run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert run.returncode == 0, run.stderr[-1500:]
+    return json.loads(run.stdout)
+
+
+def test_every_flag_of_a_command_on_a_page_is_one_its_script_takes():
+    commands = re.findall(r"python3 examples/(\w+\.py)([^`|\n]*)", text_of_pages())
+    helps = help_texts({script for script, _ in commands})
+    unknown = {(script, flag) for script, rest in commands
+               for flag in re.findall(r"(?<![\w-])(--[a-z][\w-]*)", rest) if flag not in helps[script]}
+    assert not unknown, f"flags on the pages that their scripts do not take: {sorted(unknown)}"
 
 
 @pytest.mark.parametrize("page", PAGES, ids=lambda p: p.name)
