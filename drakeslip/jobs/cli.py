@@ -211,6 +211,8 @@ def terrain_or_family(*families: str):
         if text in families:
             return text
         if not Path(text).is_file():
+            if not families:
+                raise argparse.ArgumentTypeError(f"no such terrain file: {text!r}")
             raise argparse.ArgumentTypeError(f"{text!r} is neither a terrain family ({', '.join(families)}) nor a "
                                              f"terrain file")
         return TerrainFile(Path(text), terrain_argument(text))
