@@ -25,10 +25,6 @@ error (reported before any work).
 from __future__ import annotations
 
 import json
-import os
-import shlex
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -36,9 +32,9 @@ from pathlib import Path
 from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
+from drakeslip.jobs.steps import end_by_sigint, run_step, shown
 from planners.checkpoints import EXPERT_WEIGHTS
 
-EXAMPLES = Path(__file__).resolve().parent
 # the expert's dataset settings, the same in every round (see the module doc)
 EXPERT_DATA = ["--planner", "expert", "--subcells", "4", "--min-steps", "1", "--start-x", "-1", "--heights",
                "0.55,1.1", "--speeds", "0.4,3.2", "--friction", "0.8"]
@@ -112,32 +108,6 @@ def round_commands(args, r: int, device: str) -> list[list[str]]:
         ["--init", str(work / f"round{r - 1}.pt")]
     quiet = ["--quiet"] if args.quiet else []
     return [generate + quiet, train + quiet]
-
-
-def shown(command: list[str]) -> str:
-    return "python3 " + " ".join(shlex.quote(a) for a in [f"examples/{command[0]}", *command[1:]])
-
-
-def run_step(command: list[str]) -> int:
-    """Run examples/COMMAND in a process of its own, printing it first and its time after; its exit status. On
-    Ctrl-C the step ends as its script does, saying in one line what it saved, and so does this process."""
-    print("$ " + shown(command), flush=True)
-    t0 = time.perf_counter()
-    step = subprocess.Popen([sys.executable, str(EXAMPLES / command[0]), *command[1:]])
-    try:
-        code = step.wait()
-    except KeyboardInterrupt:
-        step.send_signal(signal.SIGINT)  # a Ctrl-C reached it too; a SIGINT sent to this process alone is passed on
-        step.wait()
-        end_by_sigint()
-    print(f"  ({time.perf_counter() - t0:.0f} s, exit status {code})", flush=True)
-    return code
-
-
-def end_by_sigint() -> None:
-    """End as an interrupted program does (status 130 in a shell), with no line of this process's own."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    os.kill(os.getpid(), signal.SIGINT)
 
 
 def main(argv=None) -> int:
