@@ -148,6 +148,11 @@ class StepSpacePlanner(Planner):
         return spacings if robust is None or robust.fallback_grids else spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
+        if self.step_map == "fast" and robust is None:
+            from planners.core.search import grid_search  # compiled on first use: --help and imports stay light
+
+            return grid_search(problem, self.core_settings(problem, spacing), self.controller.for_params(problem.params),
+                               self.cost_weights, self.n_sequences, self.budget, problem.timing)
         terrain, params = problem.terrain, problem.params
 
         def expand(tree, node) -> Children:
@@ -159,6 +164,14 @@ class StepSpacePlanner(Planner):
 
         return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
+
+    def core_settings(self, problem: Problem, spacing: float, until: float = math.inf) -> np.ndarray:
+        """The compiled core's grid settings (``planners.core.grid``'s SPACING..AT_FAILURE) for ``problem``."""
+        units = problem.units
+        return np.array([spacing, REACH_PAD * units.length, until, units.length_or(self.edge_margin, EDGE_MARGIN),
+                         math.atan(problem.params.friction), units.length_or(self.tolerance, TOLERANCE),
+                         units.speed_or(self.min_speed, MIN_SPEED), problem.window_end,
+                         ISOLATION_AT_FAILURE * units.length])
 
     def search_budget(self, robust: Robustness | None):
         """The planner's budget, its nodes capped at ``robust.max_nodes`` for a robust search."""
