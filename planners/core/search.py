@@ -10,30 +10,12 @@ from numba import njit
 from planners.base import Problem
 from planners.core.clock import N_SLOTS, now
 from planners.core.grid import expand_grid
-from planners.core.tree import heap_pop, heap_push, new_tree, reserve
+from planners.core.sampled import EXHAUSTED, GOALS, NO_LIMIT, NODES, ODE_CALLS, TIME, sampled_best_first
+from planners.core.tree import add_children, new_tree, pop_next
 from planners.search.tree import (FRICTION_MARGIN, ISOLATION_AT_FAILURE, REEXPAND_PENALTY, SearchResult,
                                   SearchTree)
 
-STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")
-GOALS, EXHAUSTED, NODES, ODE_CALLS, TIME = range(5)
-NO_LIMIT = -1  # max_ode_calls when the budget has none
-
-
-@njit(cache=True)
-def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weights, keys, ids, heap):
-    """Add a node's children to the tree, each with its cost, and push them on the frontier; returns the tree,
-    its size and the frontier."""
-    k = angles.shape[0]
-    tree = reserve(tree, size, k)
-    parent, angle, foothold, apex, cost, depth = tree
-    progress, speed, spread = weights
-    for j in range(k):
-        i = size + j
-        c = progress * abs(footholds[j] - target_x) + speed * abs(apexes[j, 2]) + spread * d[j]
-        parent[i], angle[i], foothold[i], cost[i], depth[i] = node, angles[j], footholds[j], c, depth[node] + 1
-        apex[i] = apexes[j]
-        keys, ids, heap = heap_push(keys, ids, heap, c, i)
-    return tree, size + k, keys, ids, heap
+STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")  # by the stop codes of planners/core/sampled.py
 
 
 @njit(cache=True)
@@ -73,17 +55,7 @@ def grid_best_first(root, terr, p, net, sin_a, cos_a, s, target_x, weights, n_se
                 break
         tree, size, keys, ids, heap = add_children(tree, size, node, angles, footholds, apexes, d, target_x,
                                                    weights, keys, ids, heap)
-        node = -1
-        while heap > 0:
-            i, heap = heap_pop(keys, ids, heap)
-            if tree[2][i] >= target_x:
-                goals[n_goals] = i
-                n_goals += 1
-                if n_goals >= n_sequences:
-                    break
-                continue
-            node = i
-            break
+        node, heap, n_goals = pop_next(tree, keys, ids, heap, goals, n_goals, target_x)
         if n_goals >= n_sequences:
             stop = GOALS
             break
@@ -130,6 +102,24 @@ def grid_search(problem: Problem, settings: np.ndarray, controller, weights, n_s
                              float(problem.target_x), cost_weights(weights, problem.units), int(n_sequences),
                              int(budget.max_nodes), NO_LIMIT if budget.max_ode_calls is None else budget.max_ode_calls,
                              float(problem.deadline))
+    tree, size, goals, expanded, ode_calls, expansions, stop, slots = result
+    timing.add(slots)
+    return SearchResult(tree_of(problem.apex, tree, size, goals, expanded), int(ode_calls), int(expansions),
+                        STOPS[stop])
+
+
+def sampled_search(problem: Problem, settings: np.ndarray, window: np.ndarray, model, rng, width: int, controller,
+                   weights, n_sequences: int, budget, timing) -> SearchResult:
+    """One LSTM-guided search on the compiled core (``LSTMGuidedPlanner`` builds ``settings`` and ``window``;
+    ``model``: ``planners.core.model.ModelArrays``); adds its time to ``timing``."""
+    sin_a, cos_a = reach_angles(problem.params)
+    result = sampled_best_first(np.array(problem.apex, dtype=np.float64), terrain_arrays(problem.terrain),
+                                problem.params.as_array(), controller.arrays().astuple(), sin_a, cos_a, settings,
+                                window, model.astuple(), rng, int(width), float(problem.target_x),
+                                cost_weights(weights, problem.units), REEXPAND_PENALTY * problem.units.length,
+                                int(n_sequences), int(budget.max_nodes),
+                                NO_LIMIT if budget.max_ode_calls is None else budget.max_ode_calls,
+                                float(problem.deadline))
     tree, size, goals, expanded, ode_calls, expansions, stop, slots = result
     timing.add(slots)
     return SearchResult(tree_of(problem.apex, tree, size, goals, expanded), int(ode_calls), int(expansions),

@@ -81,3 +81,37 @@ def heap_pop(keys, ids, size):
         keys[i], keys[least] = keys[least], keys[i]
         ids[i], ids[least] = ids[least], ids[i]
         i = least
+
+
+@njit(cache=True)
+def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weights, keys, ids, heap):
+    """Add a node's children to the tree, each with its cost, and push them on the frontier; returns the tree,
+    its size and the frontier."""
+    k = angles.shape[0]
+    tree = reserve(tree, size, k)
+    parent, angle, foothold, apex, cost, depth = tree
+    progress, speed, spread = weights
+    for j in range(k):
+        i = size + j
+        c = progress * abs(footholds[j] - target_x) + speed * abs(apexes[j, 2]) + spread * d[j]
+        parent[i], angle[i], foothold[i], cost[i], depth[i] = node, angles[j], footholds[j], c, depth[node] + 1
+        apex[i] = apexes[j]
+        keys, ids, heap = heap_push(keys, ids, heap, c, i)
+    return tree, size + k, keys, ids, heap
+
+
+@njit(cache=True)
+def pop_next(tree, keys, ids, heap, goals, n_goals, target_x):
+    """Pop nodes until one to expand: a popped node whose foothold passes ``target_x`` is a goal (``goals`` fills
+    up to its size, then the search is done). Returns (the node to expand, -1 when none, the heap's size, the
+    number of goals)."""
+    while heap > 0:
+        i, heap = heap_pop(keys, ids, heap)
+        if tree[2][i] >= target_x:
+            goals[n_goals] = i
+            n_goals += 1
+            if n_goals >= goals.shape[0]:
+                return -1, heap, n_goals
+            continue
+        return i, heap, n_goals
+    return -1, heap, n_goals
