@@ -2,8 +2,8 @@
 one foothold at a time, callable from other compiled code (the planning core aims every candidate foothold with
 it).
 
-The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order, so
-an angle is the same on every machine (a BLAS kernel's order of summation depends on the processor), and
+The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order (``affine``),
+so an angle is the same on every machine (a BLAS kernel's order of summation depends on the processor), and
 ``StepLengthController.leg_angles`` runs these same functions, so a planner's angles are the controller's to the
 bit."""
 from __future__ import annotations
@@ -43,17 +43,46 @@ class ControllerArrays:
                 self.scale, self.max_angle, self.leg_length, self.gravity, self.refine)
 
 
+@njit(cache=True)
+def tanh(x):
+    """tanh from one exp (a quarter of libm's tanh's cost), within 3e-16 of it."""
+    e = math.exp(-2.0 * abs(x))
+    return math.copysign((1.0 - e) / (1.0 + e), x)
+
+
 @njit(cache=True, fastmath={"contract"})
-def _dense_tanh(x, w, b, acc, out):
-    """out = tanh(x @ w + b), each output summed in input order with fused multiply-adds (the outputs side by side,
-    so the sums vectorize without reordering); ``acc`` is scratch of out's size."""
-    acc[:] = 0.0
-    for k in range(w.shape[0]):
+def affine(x, w, b, out):
+    """out = x @ w + b (w stored (inputs, outputs)): each output summed in input order with fused multiply-adds,
+    the outputs side by side and four inputs a pass, so the sums vectorize without reordering."""
+    n_in, n_out = w.shape
+    out[:] = 0.0
+    k = 0
+    while k + 4 <= n_in:
+        x0, x1, x2, x3 = x[k], x[k + 1], x[k + 2], x[k + 3]
+        if x0 != 0.0 or x1 != 0.0 or x2 != 0.0 or x3 != 0.0:
+            for j in range(n_out):
+                acc = out[j]
+                acc += x0 * w[k, j]
+                acc += x1 * w[k + 1, j]
+                acc += x2 * w[k + 2, j]
+                acc += x3 * w[k + 3, j]
+                out[j] = acc
+        k += 4
+    while k < n_in:
         xk = x[k]
-        for j in range(w.shape[1]):
-            acc[j] += xk * w[k, j]
-    for j in range(w.shape[1]):
-        out[j] = math.tanh(acc[j] + b[j])
+        for j in range(n_out):
+            out[j] += xk * w[k, j]
+        k += 1
+    for j in range(n_out):
+        out[j] += b[j]
+
+
+@njit(cache=True)
+def _dense_tanh(x, w, b, out):
+    """out = tanh(x @ w + b)."""
+    affine(x, w, b, out)
+    for j in range(out.shape[0]):
+        out[j] = tanh(out[j])
 
 
 @njit(cache=True, fastmath={"contract"})
@@ -73,10 +102,10 @@ def network_angle(speed, drop, offset, net):
     x[0] = (speed / scale[0] - mean[0]) / std[0]
     x[1] = (drop / scale[1] - mean[1]) / std[1]
     x[2] = (offset / scale[2] - mean[2]) / std[2]
-    a, b, acc = np.empty(h), np.empty(h), np.empty(h)
-    _dense_tanh(x, w_in, b_in, acc, a)
+    a, b = np.empty(h), np.empty(h)
+    _dense_tanh(x, w_in, b_in, a)
     for layer in range(w_hidden.shape[0]):
-        _dense_tanh(a, w_hidden[layer], b_hidden[layer], acc, b)
+        _dense_tanh(a, w_hidden[layer], b_hidden[layer], b)
         a, b = b, a
     theta = (_dot(a, w_head) + b_head) * max_angle
     return min(max(theta, -max_angle), max_angle)

@@ -14,11 +14,14 @@ import math
 import numpy as np
 from numba import njit
 
+from drakeslip.fast_controller import affine, tanh
+
 
 class ModelArrays:
     """A ``FootstepModel``'s weights for compiled code, each layer's matrix stored (inputs, outputs): ``astuple``
-    gives (g0_w, g0_b, conv1_w (out, in, taps), conv1_b, conv2_w, conv2_b, fc_w, fc_b, w_ih (layers, in, 4H),
-    w_hh (layers, H, 4H), b (layers, 4H), head_w, head_b, subcells)."""
+    gives (g0_w, g0_b, conv1_w (out, in, taps), conv1_b, conv2_w, conv2_b, fc_w, fc_b, the first layer's w_ih
+    (in, 4H), the later layers' w_ih (layers - 1, H, 4H), w_hh (layers, H, 4H), b (layers, 4H), head_w, head_b,
+    subcells)."""
 
     def __init__(self, model):
         w = {k: v.detach().double().cpu().numpy() for k, v in model.state_dict().items()}
@@ -28,7 +31,9 @@ class ModelArrays:
         self.arrays = (np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy(), w["cnn.0.weight"].copy(),
                        w["cnn.0.bias"].copy(), w["cnn.2.weight"].copy(), w["cnn.2.bias"].copy(),
                        np.ascontiguousarray(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(),
-                       np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers]),
+                       np.ascontiguousarray(w["lstm.weight_ih_l0"].T),
+                       np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers[1:]]).reshape(c.layers - 1, c.hidden,
+                                                                                         4 * c.hidden),
                        np.stack([w[f"lstm.weight_hh_l{k}"].T for k in layers]),
                        np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"] for k in layers]),
                        np.ascontiguousarray(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells))
@@ -38,34 +43,23 @@ class ModelArrays:
 
 
 @njit(cache=True, fastmath={"contract"})
-def affine(x, w, b, out):
-    """out = x @ w + b (w stored (inputs, outputs)), the outputs summed side by side."""
-    out[:] = 0.0
-    for k in range(w.shape[0]):
-        xk = x[k]
-        if xk != 0.0:
-            for j in range(w.shape[1]):
-                out[j] += xk * w[k, j]
-    for j in range(w.shape[1]):
-        out[j] += b[j]
-
-
-@njit(cache=True)
 def _conv_relu(x, w, b):
-    """A 1-D convolution with 'same' zero padding, then ReLU: x (in, n), w (out, in, taps) -> (out, n)."""
+    """A 1-D convolution with 'same' zero padding, then ReLU: x (in, n), w (out, in, taps) -> (out, n); each output
+    summed over (input, tap) in order, the cells side by side."""
     n_out, n_in, taps = w.shape
     n = x.shape[1]
     half = taps // 2
-    y = np.empty((n_out, n))
+    padded = np.zeros((n_in, n + 2 * half))
+    padded[:, half:half + n] = x
+    y = np.zeros((n_out, n))
     for o in range(n_out):
+        for i in range(n_in):
+            for t in range(taps):
+                wt = w[o, i, t]
+                for c in range(n):
+                    y[o, c] += wt * padded[i, c + t]
         for c in range(n):
-            acc = 0.0
-            for i in range(n_in):
-                for t in range(taps):
-                    j = c + t - half
-                    if 0 <= j < n:
-                        acc += w[o, i, t] * x[i, j]
-            y[o, c] = max(acc + b[o], 0.0)
+            y[o, c] = max(y[o, c] + b[o], 0.0)
     return y
 
 
@@ -73,7 +67,7 @@ def _conv_relu(x, w, b):
 def encode(window, prev_bin, net):
     """The CNN's encoding (the LSTM's input) of the window's relative heights and a one-hot previous step at bin
     ``prev_bin``."""
-    conv1_w, conv1_b, conv2_w, conv2_b, fc_w, fc_b, subcells = net[2], net[3], net[4], net[5], net[6], net[7], net[13]
+    conv1_w, conv1_b, conv2_w, conv2_b, fc_w, fc_b, subcells = net[2], net[3], net[4], net[5], net[6], net[7], net[14]
     n = window.shape[0]
     image = np.zeros((1 + subcells, n))
     image[0] = window
@@ -88,15 +82,15 @@ def encode(window, prev_bin, net):
 
 @njit(cache=True)
 def _sigmoid(x):
-    return 0.5 * (1.0 + math.tanh(0.5 * x))
+    return 0.5 * (1.0 + tanh(0.5 * x))
 
 
 @njit(cache=True)
 def first_gates(encoding, net):
     """The first LSTM layer's input gates x @ w_ih + b for an encoding (kept per window and bin)."""
-    w_ih, b = net[8], net[10]
-    out = np.empty(w_ih.shape[2])
-    affine(encoding, w_ih[0], b[0], out)
+    w_ih, b = net[8], net[11]
+    out = np.empty(w_ih.shape[1])
+    affine(encoding, w_ih, b[0], out)
     return out
 
 
@@ -104,7 +98,7 @@ def first_gates(encoding, net):
 def first_step_logits(apex_features, gates_in, encoding, net):
     """Logits of the model's first step from an apex (its three features), given the window's ``encoding`` and
     its first layer's input gates ``gates_in``."""
-    g0_w, g0_b, w_ih, w_hh, b, head_w, head_b = net[0], net[1], net[8], net[9], net[10], net[11], net[12]
+    g0_w, g0_b, w_ih, w_hh, b, head_w, head_b = net[0], net[1], net[9], net[10], net[11], net[12], net[13]
     layers, hidden = w_hh.shape[0], w_hh.shape[1]
     state = np.empty(g0_w.shape[1])
     affine(apex_features, g0_w, g0_b, state)   # (h of every layer, then c of every layer)
@@ -119,12 +113,12 @@ def first_step_logits(apex_features, gates_in, encoding, net):
                 gates[j] += gates_in[j]
         else:
             extra = np.empty(4 * hidden)
-            affine(x, w_ih[layer], b[layer], extra)
+            affine(x, w_ih[layer - 1], b[layer], extra)
             for j in range(4 * hidden):
                 gates[j] += extra[j]
         for j in range(hidden):
-            cj = _sigmoid(gates[hidden + j]) * c[j] + _sigmoid(gates[j]) * math.tanh(gates[2 * hidden + j])
-            x[j] = _sigmoid(gates[3 * hidden + j]) * math.tanh(cj)
+            cj = _sigmoid(gates[hidden + j]) * c[j] + _sigmoid(gates[j]) * tanh(gates[2 * hidden + j])
+            x[j] = _sigmoid(gates[3 * hidden + j]) * tanh(cj)
     logits = np.empty(head_w.shape[1])
     affine(x, head_w, head_b, logits)
     return logits

@@ -12,8 +12,7 @@ from planners.core.clock import N_SLOTS, now
 from planners.core.grid import expand_grid
 from planners.core.sampled import EXHAUSTED, GOALS, NO_LIMIT, NODES, ODE_CALLS, TIME, sampled_best_first
 from planners.core.tree import add_children, new_tree, pop_next
-from planners.search.tree import (FRICTION_MARGIN, ISOLATION_AT_FAILURE, REEXPAND_PENALTY, SearchResult,
-                                  SearchTree)
+from planners.search.tree import FRICTION_MARGIN, REACH_ANGLES, REEXPAND_PENALTY, SearchResult, SearchTree
 
 STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")  # by the stop codes of planners/core/sampled.py
 
@@ -73,8 +72,6 @@ def terrain_arrays(terrain) -> tuple:
 
 def reach_angles(params) -> tuple:
     """Sines and cosines of the reach angles of ``touchdown_range`` for the hopper ``params``."""
-    from planners.search.step_space import REACH_ANGLES
-
     angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
     return np.sin(angles), np.cos(angles)
 

@@ -2,9 +2,11 @@
 distribution over the next foothold, given the path from the root to the node being expanded."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from drakeslip import ApexState
+from drakeslip import ApexState, Terrain
 from drakeslip.terrain import DITCH_HEIGHT
 
 from planners.checkpoints import SUBCELL_WEIGHTS
@@ -18,6 +20,7 @@ from planners.search.tree import Children, CostWeights, best_first, run_attempts
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
 MAX_NODES = 500
+_COMPILED: list = []  # holds True once this process has compiled (or loaded) the sampled core
 
 
 class PathConditionedSampler:
@@ -117,6 +120,8 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.floor = float(floor)
         self.grid_fallback = bool(grid_fallback)
         self.core_model = ModelArrays(self.net.model_weights) if self.conditioning == "apex" else None
+        if self.core_model is not None and self.step_map == "fast":
+            warm_up_sampled(self)
 
     def core_window(self, problem):
         """The compiled core's window settings for ``problem``, None where the search runs in numpy (a terrain
@@ -185,6 +190,15 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
         return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
+
+
+def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
+    """Compile (or load from numba's cache) the planning core's sampled search once per process, with ``planner``'s
+    model, so its JIT start-up is not charged to a plan's time budget."""
+    if not _COMPILED:
+        _COMPILED.append(True)
+        problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
+        planner._search(problem, 1)
 
 
 def core_window_settings(problem, net: FootstepDistribution, temperature: float, floor: float):
