@@ -40,6 +40,7 @@ ASCENT, DESCENT, STANCE = 0.0, 1.0, 2.0
  LAST_TARGET, TD_ANGLE) = range(13)
 STATE_SIZE = 13
 
+CLEARANCE = 0.03          # [m] the foot's height above the ground before the leg swings forward after liftoff
 RETRACT = 0.04            # [m] leg retraction in ascent: clears the ground the foot just left
 TOUCHDOWN_COMPRESSION = 0.003   # [m] compression (leg moving in) that says the foot touched down
 TOUCHDOWN_RATE = -0.2     # [m/s] ... and the leg's rate at that moment (extension in flight is positive)
@@ -57,13 +58,17 @@ class FootholdCommand:
     """Footholds (x, from the next touchdown on) on the height map ``terrain``; ``energy`` [J/kg of body] the
     planned apexes' g z + xdot^2 / 2 (None: keep the energy of the last apex); ``stamp`` tells one command from
     the next (the controller counts touchdowns from a new stamp on). Past its last foothold (or with none) the
-    controller places the foot by Raibert's rule for the forward ``speed`` [m/s] (0: hopping in place)."""
+    controller places the foot by Raibert's rule for the forward ``speed`` [m/s] (0: hopping in place).
+    ``apex_errors`` ((x, z, xdot) per step) perturb the body state the controller aims from (state estimation)
+    and ``angle_errors`` (rad per step) the leg angle it reaches (actuation), as the SLIP's rollouts do."""
 
     footholds: tuple
     terrain: Terrain
     energy: float | None
     stamp: int = 0
     speed: float = 0.0
+    apex_errors: tuple = ()
+    angle_errors: tuple = ()
 
 
 def apex_energy(z: float, xdot: float, gravity: float) -> float:
@@ -218,11 +223,18 @@ class HopperController(LeafSystem):
             if step < len(command.footholds):
                 foothold = command.footholds[step]
                 ground = command.terrain.height_at(foothold)
-                target = touchdown_angle(x, z, xd, zd, foothold, ground, slip.leg_length - p.foot_radius,
-                                         p.foot_radius, g)
+                ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
+                target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
+                                         slip.leg_length - p.foot_radius, p.foot_radius, g)
+                if step < len(command.angle_errors):
+                    target += command.angle_errors[step]
             else:
                 target = self._raibert_angle(xd, command.speed)
             kp, kd = FLIGHT_GAINS
+            foot_x = x + leg * math.sin(angle)
+            clearance = z - leg * math.cos(angle) - p.foot_radius - command.terrain.height_at(foot_x)
+            if phase == ASCENT and clearance < CLEARANCE:
+                kp = 0.0   # the foot is still leaving the ground: the leg retracts before it swings
             torque = kp * (target - angle) - kd * angle_rate
             goal = rest - RETRACT if phase == ASCENT else rest + 0.01
             kp, kd = LEG_GAINS
