@@ -161,7 +161,16 @@ class HopperController(LeafSystem):
         return spin + sum(m * ((r[0] - cx) * (v[1] - vz) - (r[1] - cz) * (v[0] - vx))
                           for m, r, v in zip(masses, points, rates))
 
-    def _raibert_angle(self, xdot: float, speed: float) -> float:
+    def _clearance(self, x, z, leg, angle, target, terrain: Terrain) -> float:
+        """The foot's height above the highest ground between it and where the swing to ``target`` takes it."""
+        reach = leg + self.params.foot_radius
+        foot_x = x + leg * math.sin(angle)
+        lo, hi = sorted((foot_x, x + reach * math.sin(target)))
+        cells = terrain.heights[terrain.index(lo):terrain.index(hi) + 1]
+        ground = float(cells.max()) if cells.size else terrain.height_at(foot_x)
+        return z - leg * math.cos(angle) - self.params.foot_radius - ground
+
+    def raibert_angle(self, xdot: float, speed: float) -> float:
         """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
         plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
         offset = 0.5 * xdot * STANCE_TIME + SPEED_GAIN * (xdot - speed)
@@ -229,12 +238,10 @@ class HopperController(LeafSystem):
                 if step < len(command.angle_errors):
                     target += command.angle_errors[step]
             else:
-                target = self._raibert_angle(xd, command.speed)
+                target = self.raibert_angle(xd, command.speed)
             kp, kd = FLIGHT_GAINS
-            foot_x = x + leg * math.sin(angle)
-            clearance = z - leg * math.cos(angle) - p.foot_radius - command.terrain.height_at(foot_x)
-            if phase == ASCENT and clearance < CLEARANCE:
-                kp = 0.0   # the foot is still leaving the ground: the leg retracts before it swings
+            if phase == ASCENT and self._clearance(x, z, leg, angle, target, command.terrain) < CLEARANCE:
+                kp = kd = 0.0   # the foot is leaving the ground: the leg retracts, free to swing on backward
             torque = kp * (target - angle) - kd * angle_rate
             goal = rest - RETRACT if phase == ASCENT else rest + 0.01
             kp, kd = LEG_GAINS

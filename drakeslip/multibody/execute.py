@@ -80,6 +80,26 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
     return run, log
 
 
+def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex_height: float = 0.62,
+                 trajectory: bool = False) -> HopLog:
+    """``hops`` hops on flat ground at the forward ``speed`` (0: in place) with the controller's own foot
+    placement (Raibert's) and an energy target of an apex ``apex_height`` high at that speed: the gait check."""
+    robot = robot or RobotParams()
+    terrain = Terrain.flat(length=max(30.0, 1.5 * hops * max(speed, 0.1)))
+    hd = _diagram(terrain, robot, True)
+    simulator = Simulator(hd.diagram)
+    context = simulator.get_mutable_context()
+    apex = ApexState(0.0, apex_height, float(speed))
+    command = FootholdCommand((), terrain, apex_energy(apex_height, speed, robot.slip.gravity), 0, float(speed))
+    set_apex_state(hd, context, apex, hd.controller.raibert_angle(speed, speed), loss_prior(speed))
+    set_command(hd, context, command)
+    monitor = HopMonitor(hd, terrain, context, hops, trajectory)
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    simulator.AdvanceTo(HOP_SECONDS * (hops + 1))
+    return monitor.log
+
+
 def _first_angle(apex: ApexState, footholds, terrain: Terrain, robot: RobotParams) -> float:
     from drakeslip.multibody.controller import touchdown_angle
 

@@ -114,7 +114,8 @@ class HopMonitor:
         fx, fz = x + leg * math.sin(angle), z - leg * math.cos(angle) - self.radius
         if leg <= self.bottom + 1e-3:
             return FailureMode.BOTTOM_OUT, "the leg reached its bottom-out stop"
-        around = max(terrain.height_at(fx - self.radius), terrain.height_at(fx + self.radius))
+        reach = self.radius - 2e-3   # the ball's side, less the contact's compliance
+        around = max(terrain.height_at(fx - reach), terrain.height_at(fx + reach))
         if fz < around - 0.01 and not terrain.is_ditch_at(fx):
             return FailureMode.FOOT_COLLISION, f"the foot pressed into a step's face at x={fx:.2f}"
         if terrain.is_ditch_at(fx):
