@@ -201,9 +201,12 @@ def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_
     footholds = command.footholds[:hops]
     apex_errors = None if command.apex_errors is None else command.apex_errors[draw]
     angle_errors = None if command.angle_errors is None else command.angle_errors[draw]
-    run, _ = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
-                     apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time)
-    return run
+    hops = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
+                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time)
+    failure = hops.failure
+    return Rollout(list(hops.footholds), list(hops.apexes), list(hops.leg_angles),
+                   None if failure is None else failure.mode, -1 if failure is None else failure.hop,
+                   None if failure is None else failure.state, hops if log else None)
 
 
 def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrator, max_time) -> Rollout:

@@ -45,12 +45,12 @@ def add_robot_and_terrain(builder, terrain: Terrain, params: RobotParams):
     return plant, scene_graph, parts, parts.layout(plant)
 
 
-def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, planner_system=None,
+def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, make_planner=None,
                   inject_energy: bool = True, meshcat=None) -> HopperDiagram:
     """The closed loop on ``terrain``: plant and scene graph, the controller (``inject_energy`` as there), and
-    the command from ``planner_system`` (a system with ports ``state`` in and ``command`` out, e.g.
+    the command from the system ``make_planner(layout)`` returns (ports ``state`` in and ``command`` out, e.g.
     ``planners.drake_system.FootstepPlannerSystem``) or, without one, from a fixed value the caller sets on the
-    controller's ``command`` port (``set_command``). ``meshcat``: a ``pydrake.geometry.Meshcat`` to draw into."""
+    diagram's ``command`` input (``set_command``). ``meshcat``: a ``pydrake.geometry.Meshcat`` to draw into."""
     params = params or RobotParams()
     builder = DiagramBuilder()
     plant, scene_graph, parts, layout = add_robot_and_terrain(builder, terrain, params)
@@ -58,6 +58,7 @@ def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, planne
     controller.set_name("hopper_controller")
     builder.Connect(plant.get_state_output_port(), controller.state_port)
     builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port())
+    planner_system = None if make_planner is None else make_planner(layout)
     if planner_system is not None:
         builder.AddSystem(planner_system)
         builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))

@@ -1,5 +1,6 @@
-"""Footsteps executed on the multibody hopper, recorded as the project's ``Rollout`` (as the SLIP's are), so
-that the closed loop, plan checking and robustness run on the robot through ``drakeslip.rollout``."""
+"""Footsteps executed on the multibody hopper from an apex, recorded as a ``HopLog`` (``drakeslip.rollout``'s
+multibody backend turns it into the project's ``Rollout``, so that plan checking and robustness run on the
+robot), and the flat-ground gait check."""
 from __future__ import annotations
 
 import math
@@ -11,7 +12,6 @@ from drakeslip.multibody.controller import FootholdCommand, apex_energy
 from drakeslip.multibody.diagram import build_diagram, set_apex_state, set_command
 from drakeslip.multibody.failures import HOP_SECONDS, HopLog, HopMonitor
 from drakeslip.multibody.robot import RobotParams
-from drakeslip.rollout import Rollout
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
 
@@ -39,12 +39,12 @@ def loss_prior(xdot: float) -> float:
 
 def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None, *,
             sensed_terrain: Terrain | None = None, apex_errors=None, angle_errors=None, inject_energy: bool = True,
-            trajectory: bool = False, max_time: float | None = None) -> tuple[Rollout, HopLog]:
+            trajectory: bool = False, max_time: float | None = None) -> HopLog:
     """Hop the robot from ``apex`` (body level, leg retracted and aimed at the first foothold) over ``terrain``,
     touching down on each of ``footholds`` (aimed at on ``sensed_terrain``, default ``terrain``) and stopping at
     the apex after the last. ``apex_errors`` (per hop, (x, z, xdot)) and ``angle_errors`` (per hop, rad) as in
-    ``drakeslip.rollout``. Returns the Rollout (footholds touched, apexes, absolute leg angles at touchdown,
-    failure) and the HopLog (the named failure, the largest pitch, the trajectory when asked)."""
+    ``drakeslip.rollout``. Returns the HopLog: footholds touched, absolute leg angles at touchdown, apexes, the
+    named failure (a STALL when the hops do not finish in time), the largest pitch, the trajectory when asked."""
     robot = robot or RobotParams()
     apex = ApexState(*map(float, apex))
     footholds = tuple(float(f) for f in footholds)
@@ -73,11 +73,7 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
         x = float(log.apexes[-1].x) if log.apexes else apex.x
         log.failure = RobotFailure(FailureMode.STALL, "the hops did not finish in time", end, x, len(log.footholds),
                                    (x, math.nan, math.nan, math.nan))
-    failure = log.failure
-    run = Rollout(list(log.footholds), list(log.apexes), list(log.leg_angles),
-                  None if failure is None else failure.mode, -1 if failure is None else failure.hop,
-                  None if failure is None else failure.state, log if trajectory else None)
-    return run, log
+    return log
 
 
 def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex_height: float = 0.62,
