@@ -128,8 +128,9 @@ def replay(result: dict, apex, terrain, params):
 
 
 def where(args) -> str:
-    """'mixed seed 3' or 'terrain file ground.csv'."""
-    return f"{args.terrain} seed {args.seed}" if isinstance(args.terrain, str) else f"terrain file {args.terrain.path}"
+    """'mixed terrain seed 3' or 'terrain file ground.csv'."""
+    return (f"{args.terrain} terrain seed {args.seed}" if isinstance(args.terrain, str)
+            else f"terrain file {args.terrain.path}")
 
 
 def write_figure(sim, result, terrain, args):
