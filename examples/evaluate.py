@@ -63,8 +63,9 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", type=cli.noise_profile, default="none",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
-    ap.add_argument("--backend", choices=("drake", "fast"), default="drake",
-                    help="what executes the plans: the Drake simulator (the protocol) or the fast step map")
+    ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",
+                    help="what executes the plans: the Drake simulator of the SLIP (the protocol), the fast step "
+                         "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
     ap.add_argument("--baseline", default=None,

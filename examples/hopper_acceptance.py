@@ -1,5 +1,5 @@
 """Does planning work for any hopper? Hoppers drawn at random from the toolkit's range (and its two corners), a
-ditch suite drawn for each, the planners held to issue 35's bars (verification/hopper_acceptance.py):
+ditch suite drawn for each, the planners held to the acceptance bars of verification/hopper_acceptance.py:
 
     python3 examples/hopper_acceptance.py --hoppers 4 --seed 35 --every 3 --backend drake --jobs 2 --out out/acceptance
 

@@ -1,6 +1,6 @@
 """Planning for any hopper, measured: hoppers drawn at random (seeded) from the range the toolkit is for, suites
 drawn for each (``planners.formats.suite_draw.draw_suite``), the planners evaluated on them in the receding-horizon
-loop (``verification.evaluation``) and held to the bars of issue 35:
+loop (``verification.evaluation``) and held to three bars:
 
 * ``step`` crosses at least 95 % of the ditch cases without noise;
 * ``step@robust`` at least 90 % of them under ``realistic`` noise (replanning at every apex, as its preset runs);

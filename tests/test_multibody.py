@@ -1,0 +1,75 @@
+"""The multibody hopper: its model and terrain geometry, the closed loop crossing a ditch, the controller's energy
+injection mattering, and the planner system in a diagram built by hand."""
+import importlib.util
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import drakeslip as ds
+from drakeslip.multibody.controller import apex_energy, touchdown_angle
+from drakeslip.multibody.robot import RobotParams, hopper_sdf
+from drakeslip.multibody.terrain import terrain_runs
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _example():
+    spec = importlib.util.spec_from_file_location("hop_multibody", ROOT / "examples" / "hop_multibody.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_terrain_boxes_have_the_maps_heights_and_edges():
+    heights = np.array([0.0, 0.0, -1.0, -1.0, 0.1, 0.1, 0.1])
+    runs = terrain_runs(ds.Terrain(heights, 0.1, 0.0))
+    assert [r[2] for r in runs] == [0.0, -1.0, 0.1]
+    assert runs[0][1] == pytest.approx(0.2) and runs[1] == pytest.approx((0.2, 0.4, -1.0))
+    assert runs[2][0] == pytest.approx(0.4) and runs[0][0] < -10 and runs[2][1] > 10
+
+
+def test_the_model_file_takes_the_parameters():
+    text = hopper_sdf(RobotParams(body_pitch_inertia=0.4, foot_mass=0.5, slip=ds.SlipParams(friction=0.6)))
+    assert "<iyy>0.4</iyy>" in text and "<mass>0.5</mass>" in text and "<drake:mu_dynamic>0.6<" in text
+    with pytest.raises(ValueError, match="foot_radius"):
+        RobotParams(foot_radius=0.2)
+
+
+def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
+    angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, 0.47, 0.03, 9.81)
+    t = np.sqrt(2 * (0.8 - 0.47 * np.cos(angle) - 0.03) / 9.81)
+    assert 1.5 * t + 0.47 * np.sin(angle) == pytest.approx(0.6, abs=1e-6)
+
+
+def _short_ditch_case():
+    return SimpleNamespace(id="short-ditch", terrain=_example().short_ditch(), apex=(0.0, 0.62, 1.0))
+
+
+def test_a_multibody_case_crosses_a_short_ditch():
+    from planners.drake_system import run_closed_loop
+
+    result = run_closed_loop("step@robust", _short_ditch_case(), 2.5, ds.SlipParams())
+    assert result["success"], result["what"]
+    assert result["final_x"] >= 2.5 and result["hops"] >= 4 and result["max_pitch"] < 0.5
+
+
+def test_without_energy_injection_the_same_case_runs_out_of_energy():
+    from planners.drake_system import run_closed_loop
+
+    result = run_closed_loop("step@robust", _short_ditch_case(), 2.5, ds.SlipParams(), inject_energy=False,
+                             trajectory=True)
+    assert not result["success"] and result["final_x"] < 2.5
+    apexes = result["log"].apexes
+    energies = [apex_energy(a.z, a.xdot, 9.81) for a in apexes]
+    start = apex_energy(0.62, 1.0, 9.81)
+    assert len(energies) >= 3 and energies[-1] < start - 0.5 and all(e < start for e in energies)
+
+
+def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
+    planner_system, x, seconds, apexes = _example().run("step@robust", 2.0, seconds=2.5)
+    assert apexes >= 3 and len(planner_system.records) == apexes + 1   # the start is an apex too
+    assert all(record["success"] for record in planner_system.records)
+    xs = [record["apex"][0] for record in planner_system.records]
+    assert xs == sorted(xs)
