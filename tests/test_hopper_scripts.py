@@ -223,10 +223,10 @@ def test_train_hopper_at_a_tiny_size_writes_a_folder_the_planners_use(inputs, ru
     code, out, err = run_script("train_hopper", *args)
     assert code == 0, (out[-1500:], err[-1500:])
     hopper = load_hopper(folder)
-    assert hopper.name == "big-folder" and hopper.params == BIG.params
+    assert hopper.name == "big" and hopper.params == BIG.params and hopper.folder == folder
     manifest = (folder / MANIFEST).read_text()
-    for name in ("hopper.json", EXPERT_WEIGHTS.name, RANKER_WEIGHTS.name):
-        assert name in manifest and hopper.weights(name) is not None or name == "hopper.json"
+    assert all(f"  {name}\n" in manifest for name in ("hopper.json", EXPERT_WEIGHTS.name, RANKER_WEIGHTS.name))
+    assert hopper.weights(EXPERT_WEIGHTS.name) is not None and hopper.weights(RANKER_WEIGHTS.name) is not None
     code, out, _ = run_script("train_hopper", *args)   # every step done: nothing runs again
     assert code == 0 and out.count(": done") == 3
     suite = draw_suite("ditch", 7000, BIG, n_terrains=1, speeds=(2.0,), heights=(0.9,))
