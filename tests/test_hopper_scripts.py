@@ -1,7 +1,8 @@
 """Your hopper, your terrain, from the scripts: --hopper and --terrain read up front (a bad one exits 2 in one line
 naming the field or row), plan files record their hopper and a plan checked against another hopper is refused,
 a hopper folder's weights replace the committed ones in the planners that read them, the paper's hopper keeps the
-paper's case, and (slow) a terrain file goes through plan_and_hop, make_plan, verify_plan and the replay for a
+paper's case, hop.py runs another hopper on a terrain file, the controller lands the targets of the softest,
+smallest hopper of the range, and (slow) a terrain file goes through plan_and_hop, make_plan, verify_plan and the replay for a
 12 kg, 0.7 m hopper; train_hopper.py at a tiny size writes a hopper folder the planners then use."""
 import json
 from pathlib import Path
@@ -236,3 +237,22 @@ def test_train_hopper_at_a_tiny_size_writes_a_folder_the_planners_use(inputs, ru
     assert code in (0, 1), err   # the one-step planner may find no plan; it ran with the folder's weights
     assert files_read("lstm", hopper_options("lstm", None, hopper)) == {
         "model": str(folder / EXPERT_WEIGHTS.name), "ranker": str(folder / RANKER_WEIGHTS.name)}
+
+
+def test_hop_runs_another_hopper_on_a_terrain_file(inputs, run_script):
+    code, out, err = run_script("hop", "--hopper", inputs / "big.json", "--terrain", inputs / "ground.csv",
+                                "--hops", "3", "--out", inputs / "hop.png")
+    assert code == 0, err
+    assert "file " in out and "outcome: ok, 3 hops" in out and (inputs / "hop.png").is_file()
+
+
+def test_the_controller_lands_a_soft_small_hoppers_targets(tmp_path, run_script):
+    """The controller trained on the paper's hopper, for the 3 kg, 0.3 m hopper of dimensionless stiffness 10 and
+    friction 0.6 (the corner of the range farthest from the paper's): after its polish every target is hit."""
+    hopper = Hopper(SlipParams(mass=3.0, leg_length=0.3, stiffness=10.0 * 3.0 * 9.81 / 0.3, friction=0.6), "corner")
+    save_hopper(hopper, tmp_path / "corner.json")
+    code, out, err = run_script("controller_accuracy", "--hopper", tmp_path / "corner.json", "--samples", "500",
+                                "--drake", "0")
+    assert code == 0, err
+    refined = [line for line in out.splitlines() if "refined" in line]
+    assert len(refined) == 2 and all("misses 0/" in line and "misses 0/0" not in line for line in refined), out
