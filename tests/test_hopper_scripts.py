@@ -119,6 +119,17 @@ def test_another_hoppers_one_case_is_in_its_units_and_checks_the_goal():
         one_case("ditch", 3, BIG, goal_x=40.0)
 
 
+def test_on_a_profile_away_from_x0_the_case_starts_on_its_ground_and_ends_before_its_end():
+    from drakeslip.terrain_file import terrain_with_gaps
+
+    ground = terrain_with_gaps(np.r_[[np.nan] * 10, np.zeros(110)], 0.1, 5.0)   # solid from x = 6 to 17
+    suite = one_case(ground, hopper=BIG)
+    assert suite.cases[0].apex.x == pytest.approx(6.7) and suite.goal_x == pytest.approx(17.0 - 0.7)
+    assert one_case(ground, hopper=BIG, start_x=8.0, goal_x=12.0).cases[0].apex.x == 8.0
+    with pytest.raises(ValueError, match="the start x=5.5 is not on solid ground"):
+        one_case(ground, hopper=BIG, start_x=5.5)
+
+
 @pytest.fixture(scope="module")
 def big_plan():
     """A step plan for BIG on the first case of a ditch suite drawn for it, with its params."""
