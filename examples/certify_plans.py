@@ -75,8 +75,8 @@ def main(argv=None) -> int:
             records[k] = record
             bar.update()
     ordered = [records[k] for k, _ in tasks]
-    write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode, "tolerance": args.tolerance, "plans": ordered,
-                          "provenance": provenance()})
+    write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode,
+                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance()})
     print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7} {'malformed':>9}  first mismatches")
     for label in specs:
         mine = [r for r in ordered if r["label"] == label]

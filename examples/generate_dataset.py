@@ -12,8 +12,9 @@ each shard atomically as it arrives, so the workers need no filesystem shared wi
 command resumes: only the missing shards are generated. OUT/config.json records the settings; a folder made with
 other settings is refused. --hopper (a hopper file or folder) makes the data for another hopper than the paper's:
 its terrains and starts are the paper's made its own as suites drawn for it are, the ranges above in the paper's
-units (planners/learned/training/config.py, ``DatasetConfig.hopper``). The shards are the same whatever the executor and --jobs. The recipes that train the
-committed models from these datasets are in docs/reproduction.md, "Regenerating the weights".
+units (planners/learned/training/config.py, ``DatasetConfig.hopper``). The shards are the same whatever the
+executor and --jobs. The recipes that train the committed models from these datasets are in docs/reproduction.md,
+"Regenerating the weights".
 """
 from __future__ import annotations
 

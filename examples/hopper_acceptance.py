@@ -43,7 +43,8 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import write_json
     from verification.hopper_acceptance import RUNS, checks, describe, evaluate_hopper, random_hoppers
 
-    hoppers = [args.hopper] if args.hopper else random_hoppers(args.seed, args.hoppers, corners=not args.no_corners)
+    hoppers = ([args.hopper] if args.hopper
+               else random_hoppers(args.seed, args.hoppers, corners=not args.no_corners))
     args.out.mkdir(parents=True, exist_ok=True)
     rows = ["| hopper | family | planner | success % | ODE calls / plan | bar | holds |", "|---|---|---|---|---|---|---|"]
     ok = True

@@ -10,7 +10,7 @@ planning call; the file holds the whole terrain, so examples/verify_plan.py chec
 
 The plan is made for the suite's hopper (--hopper, a hopper file or folder, must be that one: its folder's weights
 are then read) and recorded in the file. --terrain plans on a terrain file instead of a suite's case, for --hopper
-(default: the paper's), from the start plan_and_hop.py takes (--speed, --height, --goal as there).
+(default: the paper's), from the start plan_and_hop.py takes (--start-x, --speed, --height, --goal as there).
 
 --plot PATH.png draws the search tree the planner expanded over the terrain, the plan in bold (the search
 planners, angle and step, run their search once more to keep the tree: the same search, the same plan; other
@@ -35,6 +35,8 @@ def main(argv=None) -> int:
     ground.add_argument("--terrain", type=cli.terrain_or_family(), help="terrain file (a height profile)")
     ap.add_argument("--case", default=None, help="with --suite: case index (0-based) or case id")
     cli.add_hopper(ap, default="the suite's, else the paper's")
+    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+                    help="with --terrain: start apex x [m] (default: plan_and_hop.py's)")
     ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
                     help="with --terrain: start apex speed [m/s] (default: plan_and_hop.py's, made the hopper's)")
     ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
@@ -69,7 +71,7 @@ def main(argv=None) -> int:
             hopper = hopper_for_suite(suite, args.hopper)
         else:
             suite = one_case(args.terrain.terrain, hopper=args.hopper, speed=args.speed, height=args.height,
-                             goal_x=args.goal)
+                             goal_x=args.goal, start_x=args.start_x)
             hopper, args.case = hopper_for_suite(suite, args.hopper), "0"
         planner = make_planners(hopper_specs({check_label(args.planner): options}, hopper))[args.planner]
     except (OSError, ValueError) as error:

@@ -6,9 +6,10 @@ of each plan executed by the learned controller on the Drake hybrid simulator, r
 
 --hopper takes a hopper file or a hopper folder (examples/train_hopper.py; its planners read the folder's weights)
 and --terrain a terrain family, drawn for the hopper as examples/make_suites.py --hopper draws it, or a terrain
-file (a height profile: drakeslip/terrain_file.py). --speed, --height and --goal, when given, are taken as given
-[m/s, m]; left out, they are the paper's start (2 m/s, 0.9 m above the ground at x = 0) and course (10 m) made the
-hopper's (planners/formats/suite_draw.py, ``one_case``).
+file (a height profile: drakeslip/terrain_file.py). --start-x, --speed, --height and --goal, when given, are taken
+as given [m, m/s]; left out, they are the paper's start (x = 0, 2 m/s, 0.9 m above the ground) and course (10 m)
+made the hopper's, on a terrain file without ground at x = 0 a start one leg length onto its first solid stretch
+and a goal at most one leg length before its end (planners/formats/suite_draw.py, ``one_case``).
 
 By default the robot is an imperfect one and the planner keeps margins for it: the `realistic` noise profile
 (drakeslip/noise.py: the apex it is told is off by 5 mm and 2 cm/s, the leg by 0.005 rad, its spring, mass and
@@ -49,6 +50,8 @@ def main(argv=None) -> int:
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
                          f"period, else {EXECUTED_PER_PLAN}, the paper's)")
+    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+                    help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground)")
     ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
                     help=f"initial apex forward speed [m/s] (default: {DEMO_SPEED:g}, made the hopper's)")
     ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
@@ -73,7 +76,7 @@ def main(argv=None) -> int:
     try:
         check_label(args.planner)
         ground = args.terrain if isinstance(args.terrain, str) else args.terrain.terrain
-        suite = one_case(ground, args.seed, hopper, args.speed, args.height, args.goal)
+        suite = one_case(ground, args.seed, hopper, args.speed, args.height, args.goal, args.start_x)
         params = hopper.params.with_friction(args.friction or hopper.params.friction)
         controller = StepLengthController.load_default()
         specs = hopper_specs({args.planner: None}, hopper)
@@ -128,8 +131,9 @@ def replay(result: dict, apex, terrain, params):
 
 
 def where(args) -> str:
-    """'mixed seed 3' or 'terrain file ground.csv'."""
-    return f"{args.terrain} seed {args.seed}" if isinstance(args.terrain, str) else f"terrain file {args.terrain.path}"
+    """'mixed terrain seed 3' or 'terrain file ground.csv'."""
+    return (f"{args.terrain} terrain seed {args.seed}" if isinstance(args.terrain, str)
+            else f"terrain file {args.terrain.path}")
 
 
 def write_figure(sim, result, terrain, args):

@@ -10,9 +10,10 @@ plan's footholds through the controller, without replanning, for the plan's firs
 the fast backend; --drake K reruns the first K on Drake. The plan's own margins on Drake (spring travel left,
 friction to spare, distance of its footholds from edges) are printed first: they are what noise eats into.
 
---out writes the result as JSON (the rate, the failures, every draw's errors and outcome, and where the result
-came from, and the plan's hopper); --hopper checks the plan against a hopper file or folder (a plan made for
-another hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome (PNG).
+--out writes the result as JSON (the rate, the failures, every draw's errors and outcome, where the result came
+from, and the plan's hopper); --hopper checks the plan against a hopper file or folder (a plan made for another
+hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome
+(PNG).
 
 Exit status: 0 when the draws ran, 2 for a usage or input error.
 """

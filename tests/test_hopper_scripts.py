@@ -1,7 +1,8 @@
 """Your hopper, your terrain, from the scripts: --hopper and --terrain read up front (a bad one exits 2 in one line
 naming the field or row), plan files record their hopper and a plan checked against another hopper is refused,
 a hopper folder's weights replace the committed ones in the planners that read them, the paper's hopper keeps the
-paper's case, and (slow) a terrain file goes through plan_and_hop, make_plan, verify_plan and the replay for a
+paper's case, hop.py runs another hopper on a terrain file, the controller lands the targets of the softest,
+smallest hopper of the range, and (slow) a terrain file goes through plan_and_hop, make_plan, verify_plan and the replay for a
 12 kg, 0.7 m hopper; train_hopper.py at a tiny size writes a hopper folder the planners then use."""
 import json
 from pathlib import Path
@@ -118,6 +119,17 @@ def test_another_hoppers_one_case_is_in_its_units_and_checks_the_goal():
         one_case("ditch", 3, BIG, goal_x=40.0)
 
 
+def test_on_a_profile_away_from_x0_the_case_starts_on_its_ground_and_ends_before_its_end():
+    from drakeslip.terrain_file import terrain_with_gaps
+
+    ground = terrain_with_gaps(np.r_[[np.nan] * 10, np.zeros(110)], 0.1, 5.0)   # solid from x = 6 to 17
+    suite = one_case(ground, hopper=BIG)
+    assert suite.cases[0].apex.x == pytest.approx(6.7) and suite.goal_x == pytest.approx(17.0 - 0.7)
+    assert one_case(ground, hopper=BIG, start_x=8.0, goal_x=12.0).cases[0].apex.x == 8.0
+    with pytest.raises(ValueError, match="the start x=5.5 is not on solid ground"):
+        one_case(ground, hopper=BIG, start_x=5.5)
+
+
 @pytest.fixture(scope="module")
 def big_plan():
     """A step plan for BIG on the first case of a ditch suite drawn for it, with its params."""
@@ -223,10 +235,10 @@ def test_train_hopper_at_a_tiny_size_writes_a_folder_the_planners_use(inputs, ru
     code, out, err = run_script("train_hopper", *args)
     assert code == 0, (out[-1500:], err[-1500:])
     hopper = load_hopper(folder)
-    assert hopper.name == "big-folder" and hopper.params == BIG.params
+    assert hopper.name == "big" and hopper.params == BIG.params and hopper.folder == folder
     manifest = (folder / MANIFEST).read_text()
-    for name in ("hopper.json", EXPERT_WEIGHTS.name, RANKER_WEIGHTS.name):
-        assert name in manifest and hopper.weights(name) is not None or name == "hopper.json"
+    assert all(f"  {name}\n" in manifest for name in ("hopper.json", EXPERT_WEIGHTS.name, RANKER_WEIGHTS.name))
+    assert hopper.weights(EXPERT_WEIGHTS.name) is not None and hopper.weights(RANKER_WEIGHTS.name) is not None
     code, out, _ = run_script("train_hopper", *args)   # every step done: nothing runs again
     assert code == 0 and out.count(": done") == 3
     suite = draw_suite("ditch", 7000, BIG, n_terrains=1, speeds=(2.0,), heights=(0.9,))
@@ -236,3 +248,22 @@ def test_train_hopper_at_a_tiny_size_writes_a_folder_the_planners_use(inputs, ru
     assert code in (0, 1), err   # the one-step planner may find no plan; it ran with the folder's weights
     assert files_read("lstm", hopper_options("lstm", None, hopper)) == {
         "model": str(folder / EXPERT_WEIGHTS.name), "ranker": str(folder / RANKER_WEIGHTS.name)}
+
+
+def test_hop_runs_another_hopper_on_a_terrain_file(inputs, run_script):
+    code, out, err = run_script("hop", "--hopper", inputs / "big.json", "--terrain", inputs / "ground.csv",
+                                "--hops", "3", "--out", inputs / "hop.png")
+    assert code == 0, err
+    assert "file " in out and "outcome: ok, 3 hops" in out and (inputs / "hop.png").is_file()
+
+
+def test_the_controller_lands_a_soft_small_hoppers_targets(tmp_path, run_script):
+    """The controller trained on the paper's hopper, for the 3 kg, 0.3 m hopper of dimensionless stiffness 10 and
+    friction 0.6 (the corner of the range farthest from the paper's): after its polish every target is hit."""
+    hopper = Hopper(SlipParams(mass=3.0, leg_length=0.3, stiffness=10.0 * 3.0 * 9.81 / 0.3, friction=0.6), "corner")
+    save_hopper(hopper, tmp_path / "corner.json")
+    code, out, err = run_script("controller_accuracy", "--hopper", tmp_path / "corner.json", "--samples", "500",
+                                "--drake", "0")
+    assert code == 0, err
+    refined = [line for line in out.splitlines() if "refined" in line]
+    assert len(refined) == 2 and all("misses 0/" in line and "misses 0/0" not in line for line in refined), out
