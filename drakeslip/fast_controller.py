@@ -2,8 +2,9 @@
 one foothold at a time, callable from other compiled code (the planning core aims every candidate foothold with
 it).
 
-The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order (``affine``),
-so an angle is the same on every machine (a BLAS kernel's order of summation depends on the processor), and
+The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order
+(``affine``), so an angle is the same on every machine (a BLAS kernel's order of summation depends on the
+processor), and
 ``StepLengthController.leg_angles`` runs these same functions, so a planner's angles are the controller's to the
 bit."""
 from __future__ import annotations
