@@ -34,7 +34,7 @@ def test_compiled_model_matches_torch(apex):
     terrain, apex_in, s0, _ = net.inputs(enc)
     arrays = ModelArrays(model).astuple()
     code = encode(terrain[0], enc.s0_bin(net.subcells), arrays)
-    logits = first_step_logits(apex_in[0], first_gates(code, arrays), code, arrays)
+    logits = first_step_logits(apex_in[0], first_gates(code, arrays), code, arrays, np.empty(0, np.int64))
     with torch.no_grad():   # copies: the loaded model is shared by every planner in the process
         double, _ = copy.deepcopy(model).double()(torch.tensor(terrain), torch.tensor(apex_in), torch.tensor(s0)[:, None])
         single, _ = model(torch.tensor(terrain).float(), torch.tensor(apex_in).float(),

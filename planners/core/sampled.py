@@ -80,19 +80,25 @@ def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, encodings, gates
         encodings.append(code)
         gates.append(first_gates(code, model))
     row = keys[key]
-    logits = first_step_logits(features, gates[row], encodings[row], model)
     subcells = int(win[SUBCELLS])
-    mask = np.zeros(logits.shape[0], np.bool_)
+    n_bins = model[13].shape[0]
+    bin_width = terr[2] / subcells
+    bins = np.empty(x_l.shape[0], np.int64)
+    for i in range(x_l.shape[0]):
+        bins[i] = int(math.floor((x_l[i] - x_start) / bin_width))
+    # The draw's order is that of p scaled by any positive factor (``weighted_order``), so without a floor the
+    # candidates' probabilities need not be normalized over every bin: the head runs for their bins alone.
+    wanted = bins[(bins >= 0) & (bins < n_bins)] if win[FLOOR] == 0.0 else np.empty(0, np.int64)
+    logits = first_step_logits(features, gates[row], encodings[row], model, wanted)
+    mask = np.zeros(n_bins, np.bool_)
     if win[MASK_DITCHES]:
-        for j in range(logits.shape[0]):
+        for j in range(n_bins):
             mask[j] = ditch[j // subcells]
     probs = masked_softmax(logits, win[TEMPERATURE], mask)
-    bin_width = terr[2] / subcells
     p = np.zeros(x_l.shape[0])
     for i in range(x_l.shape[0]):
-        b = int(math.floor((x_l[i] - x_start) / bin_width))
-        if 0 <= b < probs.shape[0]:
-            p[i] = probs[b]
+        if 0 <= bins[i] < n_bins:
+            p[i] = probs[bins[i]]
     return p
 
 
