@@ -73,3 +73,15 @@ def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
     assert all(record["success"] for record in planner_system.records)
     xs = [record["apex"][0] for record in planner_system.records]
     assert xs == sorted(xs)
+
+
+def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
+    from drakeslip.multibody.fit import Hop, errors, fit, predict
+
+    truth = ds.SlipParams(leg_length=0.48, stiffness=3600.0)
+    starts = [(0.0, z, v) for z in (0.75, 0.9) for v in (1.0, 1.5, 2.0)]
+    hops = [Hop(a, a[0] + 0.12 * a[2] + 0.1, 0.0, (0.0, 0.0, 0.0)) for a in starts]
+    hops = [Hop(h.apex, h.foothold, 0.0, tuple(p)) for h, p in zip(hops, predict(hops, truth))]
+    fitted = fit(hops, ds.SlipParams())
+    assert fitted.leg_length == pytest.approx(0.48, abs=2e-3) and fitted.stiffness == pytest.approx(3600, rel=0.02)
+    assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])

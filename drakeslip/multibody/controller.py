@@ -70,6 +70,21 @@ class FootholdCommand:
     apex_errors: tuple = ()
     angle_errors: tuple = ()
 
+    def __deepcopy__(self, memo):
+        return self   # immutable (frozen, tuples, a read-only terrain): Drake's state copies may share it
+
+
+class Heights:
+    """A terrain's height at a scalar x, in plain Python (``Terrain.height_at`` is made for arrays)."""
+
+    def __init__(self, terrain: Terrain):
+        self.terrain, self.x0, self.cell = terrain, terrain.x0, terrain.cell
+        self.values = terrain.heights.tolist()
+        self.last = len(self.values) - 1
+
+    def __call__(self, x: float) -> float:
+        return self.values[min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.last)]
+
 
 def apex_energy(z: float, xdot: float, gravity: float) -> float:
     """Energy per kg of an apex at height ``z`` (world) moving at ``xdot``."""
@@ -117,6 +132,7 @@ class HopperController(LeafSystem):
         self.params, self.layout, self.inject_energy = params, layout, bool(inject_energy)
         self._q, self._v = list(layout.q), list(layout.v)
         self.pitch_inertia = params.body_pitch_inertia
+        self._lookup = None
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
         m_total = params.total_mass
         reach = params.rest_extension - RETRACT
@@ -161,13 +177,18 @@ class HopperController(LeafSystem):
         return spin + sum(m * ((r[0] - cx) * (v[1] - vz) - (r[1] - cz) * (v[0] - vx))
                           for m, r, v in zip(masses, points, rates))
 
+    def _heights(self, terrain: Terrain) -> Heights:
+        if self._lookup is None or self._lookup.terrain is not terrain:
+            self._lookup = Heights(terrain)
+        return self._lookup
+
     def _clearance(self, x, z, leg, angle, target, terrain: Terrain) -> float:
         """The foot's height above the highest ground between it and where the swing to ``target`` takes it."""
         reach = leg + self.params.foot_radius
         foot_x = x + leg * math.sin(angle)
         lo, hi = sorted((foot_x, x + reach * math.sin(target)))
         cells = terrain.heights[terrain.index(lo):terrain.index(hi) + 1]
-        ground = float(cells.max()) if cells.size else terrain.height_at(foot_x)
+        ground = float(cells.max()) if cells.size else self._heights(terrain)(foot_x)
         return z - leg * math.cos(angle) - self.params.foot_radius - ground
 
     def raibert_angle(self, xdot: float, speed: float) -> float:
@@ -231,7 +252,7 @@ class HopperController(LeafSystem):
             step = int(s[STEP])
             if step < len(command.footholds):
                 foothold = command.footholds[step]
-                ground = command.terrain.height_at(foothold)
+                ground = self._heights(command.terrain)(foothold)
                 ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
                 target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
                                          slip.leg_length - p.foot_radius, p.foot_radius, g)

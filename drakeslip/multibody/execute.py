@@ -52,9 +52,7 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     errors = () if apex_errors is None else tuple(tuple(map(float, e)) for e in np.asarray(apex_errors))
-    told = ApexState(*(np.asarray(apex) + (errors[0] if errors else 0.0)))
-    energy = apex_energy(told.z, told.xdot, robot.slip.gravity)
-    command = FootholdCommand(footholds, sensed_terrain or terrain, energy, 0, 0.0, errors,
+    command = FootholdCommand(footholds, sensed_terrain or terrain, None, 0, 0.0, errors,
                               () if angle_errors is None else tuple(map(float, np.ravel(angle_errors))))
     set_apex_state(hd, context, apex, _first_angle(apex, footholds, command.terrain, robot),
                    loss_prior(apex.xdot))
