@@ -85,3 +85,28 @@ def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
     fitted = fit(hops, ds.SlipParams())
     assert fitted.leg_length == pytest.approx(0.48, abs=2e-3) and fitted.stiffness == pytest.approx(3600, rel=0.02)
     assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])
+
+
+def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
+    """The replay shows the robot's own geometry (blue body, dark upper leg, red foot) over the terrain."""
+    from test_meshcat_replay import require_browser, screenshot
+
+    require_browser()
+    from PIL import Image
+
+    from drakeslip.multibody.replay import HEADER_PX, write_robot_replay
+    from planners.drake_system import run_closed_loop
+
+    case = _short_ditch_case()
+    result = run_closed_loop("step@robust", case, 1.0, ds.SlipParams(), trajectory=True)
+    page = write_robot_replay(result["log"], case.terrain, tmp_path / "robot.html", title="robot over a ditch")
+    text = page.read_text()
+    assert "<title>robot over a ditch</title>" in text and "no failure" in text
+    screenshot(page, tmp_path / "robot.png", budget_ms=6000)
+    image = np.asarray(Image.open(tmp_path / "robot.png").convert("RGB")).astype(int)[HEADER_PX + 2:]
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    body = ((b > r + 60) & (b > g + 30)).sum()
+    foot = ((r > g + 60) & (r > b + 60)).sum()
+    terrain = ((r > b + 15) & (g > b + 5) & (r < 200)).sum()
+    dark = ((r < 60) & (g < 60) & (b < 60)).sum()
+    assert body > 500 and foot > 30 and terrain > 0.05 * r.size and dark > 50, (body, foot, terrain, dark)
