@@ -15,10 +15,9 @@ from drakeslip.multibody.robot import RobotParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
 
-# The energy per kg of body a hop loses (touchdown impact, the foot's liftoff, damping) grows with speed; the
-# controller starts from this estimate, a + b xdot^2 [J/kg], the steady bias it learns hopping on flat ground,
-# and keeps learning from each apex.
-LOSS_PRIOR = (0.16, 0.07)
+# The energy per kg of body a hop loses beyond the foot's liftoff (which the controller accounts for), a + b
+# xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
+LOSS_PRIOR = (0.10, 0.035)
 
 _built: dict = {}
 
