@@ -21,7 +21,7 @@ from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
 
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
-SLIP_DISTANCE = 0.03   # [m] foot travel in one stance that counts as slipping
+SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
 HOP_SECONDS = 5.0      # a hop longer than this is a STALL, as on the SLIP (drakeslip.rollout)
 BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (hopper.sdf)
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
@@ -126,8 +126,10 @@ class HopMonitor:
                 return FailureMode.FOOT_COLLISION, f"the foot went into a ditch at x={fx:.2f}"
         if phase == ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
             return FailureMode.TRIP, f"the swinging foot caught the ground at x={fx:.2f}"
-        if phase == STANCE and abs(fx - c[TOUCHDOWN_X]) > SLIP_DISTANCE:
-            return FailureMode.SLIP, f"the foot slid {fx - c[TOUCHDOWN_X]:+.3f} m in stance"
+        # the ball rolls as the leg turns over it: its centre moves r (angle at touchdown - angle) with no slip
+        slide = fx - c[TOUCHDOWN_X] - self.radius * (c[TD_ANGLE] - angle)
+        if phase == STANCE and abs(slide) > SLIP_DISTANCE:
+            return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
         if t - self.phase_start > HOP_SECONDS:
             return FailureMode.STALL, "no hop completed"
         if phase == DESCENT and self.phase_start == t and xd <= 0.0 and self._target_ahead(x, c):
