@@ -36,7 +36,9 @@ class ClosedLoopConfig:
     use it (``Terrain.denoised`` with the profile's height error; 1: the map as sensed). Without the filter a
     1 cm error per 10 cm cell makes one cell edge in six look like a step of more than 2 cm, which the planners
     keep their footholds clear of. ``robot``: on the multibody backend, the robot's ``RobotParams`` (None: the
-    default robot with the case's friction), recorded with the results."""
+    default robot with the case's friction), recorded with the results; ``template``: the SLIP the planners plan
+    for there (None: the hopper's own parameters), e.g. the one fitted to the robot (``drakeslip.multibody.fit``),
+    with the case's friction."""
 
     executed_per_plan: int = EXECUTED_PER_PLAN
     max_hops: int = MAX_HOPS
@@ -46,6 +48,7 @@ class ClosedLoopConfig:
     seed: int = 0
     map_filter: int = 1
     robot: object = None
+    template: SlipParams | None = None
 
     def to_dict(self) -> dict:
         record = {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
@@ -53,6 +56,7 @@ class ClosedLoopConfig:
                   "map_filter": self.map_filter}
         if self.backend == "multibody":
             record["robot"] = robot_record(self.robot)
+            record["template"] = None if self.template is None else asdict(self.template)
         return record
 
     def __post_init__(self):
@@ -144,7 +148,13 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
 def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
     from planners.drake_system import run_closed_loop
 
-    result = run_closed_loop(planner, case, goal_x, params, config.robot, noise=config.noise, seed=config.seed,
+    template = params if config.template is None else config.template.with_friction(params.friction)
+    robot = config.robot
+    if robot is None:
+        from drakeslip.multibody.robot import RobotParams
+
+        robot = RobotParams(slip=params)
+    result = run_closed_loop(planner, case, goal_x, template, robot, noise=config.noise, seed=config.seed,
                              map_filter=config.map_filter, max_hops=config.max_hops,
                              replan_every=config.executed_per_plan)
     result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
