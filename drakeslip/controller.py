@@ -17,8 +17,9 @@ speed, drop and offset in the units of the hopper the network was trained for (s
 over the length factor) and polishes with the hopper's own L0 and g. For the trained hopper the factors are exactly
 1.0 and the angles are the trained controller's to the bit.
 
-Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is needed
-only to read and write the weights file (training is controller_training.py).
+Inference runs compiled (``fast_controller.py``), not in torch, whose dispatch costs more than a 3-64-64-64-1 MLP's
+arithmetic; the planning core calls the same compiled function, so a planner's angles are the controller's to the
+bit. Torch is needed only to read and write the weights file (training is controller_training.py).
 
 ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
 ``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
@@ -88,6 +89,7 @@ class StepLengthController:
         self._layers = [(arrays[f"hidden.{k}.weight"].T.copy(), arrays[f"hidden.{k}.bias"].copy())
                         for k in range(config.layers)]
         self._head = (arrays["head.weight"].T.copy(), arrays["head.bias"].copy())
+        self._arrays = None           # the network for compiled code, made on first use
 
     def for_params(self, params: SlipParams) -> "StepLengthController":
         """The controller for the hopper ``params``: the same network, its inputs taken in the trained hopper's units
@@ -104,18 +106,15 @@ class StepLengthController:
             speed = math.sqrt((params.gravity * params.leg_length) / (trained.gravity * trained.leg_length))
             view.feature_scale = np.array([speed, length, length])
             view.views = self.views
+            view._arrays = None
             self.views[key] = view
         return self.views[key]
 
     # ---- inference -----------------------------------------------------------------------------------
     def _forward(self, feats: np.ndarray) -> np.ndarray:
-        if self.feature_scale is not None:
-            feats = feats / self.feature_scale
-        x = (feats - self.feature_mean) / self.feature_std
-        for w, b in self._layers:
-            x = np.tanh(x @ w + b)
-        theta = (x @ self._head[0] + self._head[1])[:, 0] * self.config.max_angle
-        return np.minimum(np.maximum(theta, -self.config.max_angle), self.config.max_angle)
+        from drakeslip.fast_controller import network_angles  # compiled on first use: imports stay light
+
+        return network_angles(np.ascontiguousarray(feats, dtype=np.float64), self.arrays().astuple())
 
     def leg_angles(self, apex, footholds, terrain: Terrain, refine: bool | None = None) -> np.ndarray:
         """Leg angles for many desired footholds: from one apex (x, z, xdot), or one apex row per foothold."""
@@ -142,6 +141,21 @@ class StepLengthController:
         if not math.isfinite(foothold_x):
             raise ValueError(f"foothold_x must be finite, got {foothold_x!r}")
         return float(self.leg_angles(apex, [foothold_x], terrain, refine)[0])
+
+    def arrays(self):
+        """The network as ``drakeslip.fast_controller.ControllerArrays`` for compiled code (built once per view)."""
+        if self._arrays is None:
+            from drakeslip.fast_controller import ControllerArrays
+
+            (w_in, b_in), hidden = self._layers[0], self._layers[1:]
+            size = self.config.hidden
+            self._arrays = ControllerArrays(
+                w_in, b_in, np.array([w for w, _ in hidden]).reshape(len(hidden), size, size),
+                np.array([b for _, b in hidden]).reshape(len(hidden), size), self._head[0][:, 0].copy(),
+                float(self._head[1][0]), self.feature_mean, self.feature_std,
+                np.ones(N_FEATURES) if self.feature_scale is None else self.feature_scale,
+                float(self.config.max_angle), float(self.leg_length), float(self.gravity), bool(self.refine))
+        return self._arrays
 
     # ---- persistence ---------------------------------------------------------------------------------
     def weights(self) -> dict:
