@@ -34,7 +34,8 @@ def anchors(page: Path) -> set:
 @pytest.mark.parametrize("script", SCRIPTS)
 def test_every_example_script_is_run_by_a_command_on_a_page(script):
     """Each script appears on README.md or a docs page in a command line (``python3 examples/NAME.py ...``)."""
-    assert f"python3 examples/{script}" in text_of_pages(), (
+    documented = f"python3 examples/{script}" in text_of_pages()
+    assert documented, (
         f"examples/{script} is not run by any command in README.md or docs/*.md")
 
 
