@@ -2,8 +2,9 @@
 one foothold at a time, callable from other compiled code (the planning core aims every candidate foothold with
 it).
 
-The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order (``affine``),
-so an angle is the same on every machine (a BLAS kernel's order of summation depends on the processor), and
+The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order
+(``affine``), so an angle is the same on every machine (a BLAS kernel's order of summation depends on the
+processor), and
 ``StepLengthController.leg_angles`` runs these same functions, so a planner's angles are the controller's to the
 bit."""
 from __future__ import annotations
@@ -50,6 +51,28 @@ def tanh(x):
     return math.copysign((1.0 - e) / (1.0 + e), x)
 
 
+# tanh(x) ~ x P(x^2) / Q(x^2) on |x| <= TANH_CLAMP (Eigen's rational approximation of tanh, float32-accurate)
+TANH_P = (4.89352455891786e-03, 6.37261928875436e-04, 1.48572235717979e-05, 5.12229709037114e-08,
+          -8.60467152213735e-11, 2.00018790482477e-13, -2.76076847742355e-16)
+TANH_Q = (4.89352518554385e-03, 2.26843463243900e-03, 1.18534705686654e-04, 1.19825839466702e-06)
+TANH_CLAMP = 7.90531110763549805
+
+
+@njit(cache=True)
+def rational_tanh(x):
+    """tanh to float32's precision (within 3e-7) with no library call, so a layer's activations vectorize: the
+    controller's network was trained in float32, and its angle only starts the Newton polish."""
+    x = min(max(x, -TANH_CLAMP), TANH_CLAMP)
+    x2 = x * x
+    p = TANH_P[6]
+    for k in range(5, -1, -1):
+        p = p * x2 + TANH_P[k]
+    q = TANH_Q[3]
+    for k in range(2, -1, -1):
+        q = q * x2 + TANH_Q[k]
+    return x * p / q
+
+
 @njit(cache=True, fastmath={"contract"})
 def affine(x, w, b, out):
     """out = x @ w + b (w stored (inputs, outputs)): each output summed in input order with fused multiply-adds,
@@ -82,7 +105,7 @@ def _dense_tanh(x, w, b, out):
     """out = tanh(x @ w + b)."""
     affine(x, w, b, out)
     for j in range(out.shape[0]):
-        out[j] = tanh(out[j])
+        out[j] = rational_tanh(out[j])
 
 
 @njit(cache=True, fastmath={"contract"})

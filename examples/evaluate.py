@@ -90,6 +90,10 @@ def main(argv=None) -> int:
             check_window(args.map_filter, "map_filter")
         except ValueError as error:
             ap.error(f"--map-filter: {error}")
+    if args.backend == "multibody":   # the planners plan for the template fitted to the robot, when there is one
+        from drakeslip.multibody.fit import fitted_template
+
+        loop_options["template"] = fitted_template()
     configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
                                        refine=not args.mlp_only, noise=args.noise, seed=args.seed)
                for label in labels}

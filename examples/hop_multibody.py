@@ -21,14 +21,14 @@ import sys
 OK, FAILED = 0, 1
 
 
-def short_ditch(width_cells: int = 4):
-    """Flat ground with a ditch from x = 1.5 m, ``width_cells`` 10 cm cells wide."""
+def two_ditches():
+    """Flat ground with 0.4 m ditches at x = 1.5-1.9 m and 3.0-3.4 m."""
     import numpy as np
 
     from drakeslip import Terrain
 
     heights = np.zeros(120)
-    heights[45:45 + width_cells] = -1.0
+    heights[45:49] = heights[60:64] = -1.0
     return Terrain(heights, 0.1, -3.0)
 
 
@@ -59,7 +59,7 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
     return builder.Build(), plant, controller, planner_system
 
 
-def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.0), seconds: float = 6.0, meshcat=None):
+def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.0, meshcat=None):
     """Simulate the hand-built diagram from the apex ``start`` until the body's x passes ``goal_x`` (or
     ``seconds``); returns (the planner system, the final body x, the simulated time, the apexes the controller
     counted)."""
@@ -69,7 +69,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.0), seconds: float = 6.
 
     from drakeslip.multibody.controller import APEXES, DESCENT, RETRACT
 
-    diagram, plant, controller, planner_system = build(planner, short_ditch(), goal_x, meshcat)
+    diagram, plant, controller, planner_system = build(planner, two_ditches(), goal_x, meshcat)
     simulator = Simulator(diagram)
     context = simulator.get_mutable_context()
     plant_context = plant.GetMyMutableContextFromRoot(context)
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     ap.add_argument("--planner", default="step@robust", help="a registered planner label")
-    ap.add_argument("--goal", type=float, default=4.0, help="goal x [m] (the ditch lies at 1.5-1.9 m)")
+    ap.add_argument("--goal", type=float, default=4.0, help="goal x [m] (ditches at 1.5-1.9 and 3.0-3.4 m)")
     ap.add_argument("--html", default=None, help="also write a Meshcat replay of the run here (.html)")
     args = ap.parse_args(argv)
     import planners

@@ -63,6 +63,9 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the run (self-contained HTML)")
+    ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
+                    help="what hops: the SLIP on Drake, or the multibody robot (drakeslip/multibody) in one "
+                         "closed-loop Diagram, planning for the template fitted to it")
     args = ap.parse_args(argv)
 
     from drakeslip import SlipParams, StepLengthController
@@ -89,6 +92,8 @@ def main(argv=None) -> int:
     loop = loop_settings(args.planner)
     executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
     config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
+    if args.backend == "multibody":
+        return hop_robot(planner, terrain, apex, params, config, executed, args)
     result = run_case(planner, controller, case, args.goal, params, config)
 
     for i, p in enumerate(result["plans"]):
@@ -104,6 +109,46 @@ def main(argv=None) -> int:
     write_figure(sim, result, terrain, args)
     if args.html:
         write_html(sim, result, planner.plans, args)
+    return cli.OK if result["success"] else cli.FAILED
+
+
+def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
+    """The multibody robot in its closed-loop Diagram: print the plans, draw the body's path, write the replay."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from drakeslip.multibody.fit import fitted_template
+    from drakeslip.multibody.replay import write_robot_replay
+    from drakeslip.viz import new_axes, plot_terrain
+    from planners.drake_system import run_closed_loop
+
+    template = fitted_template()
+    template = params if template is None else template.with_friction(params.friction)
+    result = run_closed_loop(planner, SimpleNamespace(id="demo", terrain=terrain, apex=apex), args.goal, template,
+                             noise=config.noise, seed=config.seed, map_filter=config.map_filter,
+                             replan_every=executed, trajectory=True)
+    log = result["log"]
+    for i, p in enumerate(result["plans"]):
+        print(f"plan {i}: from x={p['apex'][0]:.2f}: {' '.join(f'{x:.2f}' for x in p['footholds']) or p['message']}")
+    outcome = "reached the goal" if result["success"] else f"failed: {result['failure']} ({result['what']})"
+    print(f"{args.planner} on the multibody robot, {where(args)}: {outcome} at x = "
+          f"{result['final_x']:.2f}; largest body pitch {result['max_pitch']:.3f} rad; {result['simulated_s']:.1f} s "
+          f"simulated in {result['wall_s']:.1f} s")
+    positions = np.array(log.positions)
+    ax = new_axes((12, 3.5))
+    plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
+    ax.plot(positions[:, 0], positions[:, 1], color="#1f4e99", lw=1.2, label="body")
+    ax.plot(log.footholds, terrain.height_at(np.array(log.footholds)) + 0.02, "o", color="orange", ms=5,
+            mec="black", label="touchdowns")
+    ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
+    ax.set_title(f"{args.planner} on the multibody robot, {where(args)}: {outcome}")
+    ax.figure.legend(loc="outside lower center", fontsize=8, ncols=4, frameon=False)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    ax.figure.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
+    if args.html:
+        print(f"replay: {write_robot_replay(log, terrain, args.html, title=f'plan_and_hop.py: {args.planner}')}")
     return cli.OK if result["success"] else cli.FAILED
 
 

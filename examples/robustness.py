@@ -42,10 +42,15 @@ def main(argv=None) -> int:
                     help="count a draw a success when it completes the plan's first HOPS hops (default: all of them)")
     ap.add_argument("--drake", type=cli.non_negative_int, default=0, metavar="K",
                     help="rerun the first K draws on Drake and report agreement")
+    ap.add_argument("--backend", choices=("fast", "multibody"), default="fast",
+                    help="what runs the draws: the fast step map, or the multibody robot (drakeslip/multibody: about "
+                         "a second per hop; --drake then reruns on the SLIP's Drake simulator)")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None, help="also write the result (JSON)")
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
                     help="also draw the draws by outcome in (apex error, leg-angle error) space (PNG)")
     args = ap.parse_args(argv)
+    if args.backend == "multibody" and args.drake:
+        ap.error("--drake compares fast-backend draws with Drake: use it with --backend fast")
     if args.drake > args.samples:
         ap.error(f"--drake {args.drake} is more than --samples {args.samples}")
     try:
@@ -75,7 +80,7 @@ def main(argv=None) -> int:
         for name, margin in nominal.margins().items():
             print(f"  {name:<15} {margin.value:9.4f} (hop {margin.hop})")
     t0 = time.perf_counter()
-    result = success_probability(record, args.samples, args.noise, args.seed, hops=args.hops,
+    result = success_probability(record, args.samples, args.noise, args.seed, backend=args.backend, hops=args.hops,
                                  map_filter=args.map_filter)
     print(f"{time.perf_counter() - t0:.2f} s")
     print(result.format())
@@ -85,6 +90,11 @@ def main(argv=None) -> int:
         print(confirmation.format() + f" ({time.perf_counter() - t0:.1f} s)")
     document = {**result.to_dict(), "plan": str(args.plan),
                 "hopper": (record.hopper or hopper_for(record.params)).to_record(), "provenance": provenance()}
+    if args.backend == "multibody":   # the robot each draw ran: built around the draw's hopper
+        from drakeslip.multibody.robot import RobotParams
+        from planners.closed_loop import robot_record
+
+        document["robot"] = robot_record(RobotParams(slip=record.params))
     if args.drake:
         document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
     if args.out:

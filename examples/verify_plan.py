@@ -44,7 +44,12 @@ def main(argv=None) -> int:
                     help="also draw the Drake run, planned against actual, the counterexample marked (PNG)")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the Drake run (self-contained HTML)")
+    ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
+                    help="what executes the plan: the SLIP on Drake, or the multibody robot (drakeslip/multibody) "
+                         "aiming at the plan's footholds (--mode is then footholds; --plot and --html draw the SLIP)")
     args = ap.parse_args(argv)
+    if args.backend == "multibody" and (args.plot or args.html):
+        ap.error("--plot and --html draw the SLIP's run: use them with --backend drake")
 
     from drakeslip.hopper_file import check_same_hopper, hopper_for
     from drakeslip.jobs.runner import write_json
@@ -64,6 +69,14 @@ def main(argv=None) -> int:
         ap.error(str(error))
     print(f"{record.planner} plan, {len(record.footholds)} footholds to target x={record.target_x:g}, start apex "
           f"({record.apex.x:g}, {record.apex.z:g}, {record.apex.xdot:g})")
+    if args.backend == "multibody":
+        from verification.robot_check import check_plan_on_robot
+
+        result = check_plan_on_robot(record, args.tolerance)
+        print(result.format())
+        if args.out:
+            write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
+        return cli.OK if result.ok else cli.FAILED
     result = check_plan(record, args.mode, args.tolerance)
     print(result.format())
     if args.out:

@@ -10,7 +10,6 @@ Its ports: ``state`` in (the plant's state vector), ``command`` out. A user wire
 """
 from __future__ import annotations
 
-import math
 import time
 import zlib
 from dataclasses import asdict, replace
@@ -21,7 +20,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import LeafSystem
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.multibody.controller import FootholdCommand, apex_energy, touchdown_angle
+from drakeslip.multibody.controller import FootholdCommand, touchdown_angle
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HOP_SECONDS, HopMonitor
@@ -57,7 +56,6 @@ class FootstepPlannerSystem(LeafSystem):
         self._z, self._vz = layout.q[0:2], layout.v[0:2]
         self._q, self._v = list(layout.q), list(layout.v)
         self.records: list = []
-        self.energy = math.nan
         self.DeclareVectorInputPort("state", max(layout.v) + 1)
         self._command = self.DeclareAbstractState(AbstractValue.Make(FootholdCommand((), terrain, None, -1)))
         self._rising = self.DeclareDiscreteState(2)   # rising in flight (1/0); apexes since the last plan
@@ -105,9 +103,8 @@ class FootstepPlannerSystem(LeafSystem):
         footholds = tuple(record["footholds"]) if record["success"] else ()
         self.records.append(record)
         errors_told = (tuple(float(e) for e in errors),)
-        if stamp == 0:   # the robot holds the energy it starts with: the plans' apexes all have it
-            self.energy = apex_energy(seen.z, seen.xdot, self.params.gravity)
-        return FootholdCommand(footholds, sensed, self.energy, stamp, 0.0, errors_told)
+        # energy None: the controller keeps each apex's energy, as the template the plan was made for does
+        return FootholdCommand(footholds, sensed, None, stamp, 0.0, errors_told)
 
 
 def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipParams, robot: RobotParams | None = None,

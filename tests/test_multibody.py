@@ -43,28 +43,27 @@ def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
     assert 1.5 * t + 0.47 * np.sin(angle) == pytest.approx(0.6, abs=1e-6)
 
 
-def _short_ditch_case():
-    return SimpleNamespace(id="short-ditch", terrain=_example().short_ditch(), apex=(0.0, 0.62, 1.0))
+def _ditches_case():
+    return SimpleNamespace(id="two-ditches", terrain=_example().two_ditches(), apex=(0.0, 0.62, 1.5))
 
 
-def test_a_multibody_case_crosses_a_short_ditch():
+def test_a_multibody_case_crosses_short_ditches():
     from planners.drake_system import run_closed_loop
 
-    result = run_closed_loop("step@robust", _short_ditch_case(), 2.5, ds.SlipParams())
+    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams())
     assert result["success"], result["what"]
-    assert result["final_x"] >= 2.5 and result["hops"] >= 4 and result["max_pitch"] < 0.5
+    assert result["final_x"] >= 4.0 and result["hops"] >= 5 and result["max_pitch"] < 0.5
 
 
 def test_without_energy_injection_the_same_case_runs_out_of_energy():
     from planners.drake_system import run_closed_loop
 
-    result = run_closed_loop("step@robust", _short_ditch_case(), 2.5, ds.SlipParams(), inject_energy=False,
+    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams(), inject_energy=False,
                              trajectory=True)
-    assert not result["success"] and result["final_x"] < 2.5
-    apexes = result["log"].apexes
-    energies = [apex_energy(a.z, a.xdot, 9.81) for a in apexes]
-    start = apex_energy(0.62, 1.0, 9.81)
-    assert len(energies) >= 3 and energies[-1] < start - 0.5 and all(e < start for e in energies)
+    assert not result["success"] and result["final_x"] < 4.0
+    energies = [apex_energy(a.z, a.xdot, 9.81) for a in result["log"].apexes]
+    start = apex_energy(0.62, 1.5, 9.81)
+    assert len(energies) >= 3 and energies[-1] < start - 1.0 and all(np.diff(energies[:4]) < 0)
 
 
 def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
@@ -73,3 +72,41 @@ def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
     assert all(record["success"] for record in planner_system.records)
     xs = [record["apex"][0] for record in planner_system.records]
     assert xs == sorted(xs)
+
+
+def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
+    from drakeslip.multibody.fit import Hop, errors, fit, predict
+
+    truth = ds.SlipParams(leg_length=0.48, stiffness=3600.0)
+    starts = [(0.0, z, v) for z in (0.75, 0.9) for v in (1.0, 1.5, 2.0)]
+    hops = [Hop(a, a[0] + 0.12 * a[2] + 0.1, 0.0, (0.0, 0.0, 0.0)) for a in starts]
+    hops = [Hop(h.apex, h.foothold, 0.0, tuple(p)) for h, p in zip(hops, predict(hops, truth))]
+    fitted = fit(hops, ds.SlipParams())
+    assert fitted.leg_length == pytest.approx(0.48, abs=2e-3) and fitted.stiffness == pytest.approx(3600, rel=0.02)
+    assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])
+
+
+def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
+    """The replay shows the robot's own geometry (blue body, dark upper leg, red foot) over the terrain."""
+    from test_meshcat_replay import require_browser, screenshot
+
+    require_browser()
+    from PIL import Image
+
+    from drakeslip.multibody.replay import HEADER_PX, write_robot_replay
+    from planners.drake_system import run_closed_loop
+
+    case = _ditches_case()
+    result = run_closed_loop("step@robust", case, 1.0, ds.SlipParams(), trajectory=True)
+    assert result["success"], result["what"]
+    page = write_robot_replay(result["log"], case.terrain, tmp_path / "robot.html", title="robot over a ditch")
+    text = page.read_text()
+    assert "<title>robot over a ditch</title>" in text and "no failure" in text
+    screenshot(page, tmp_path / "robot.png", budget_ms=6000)
+    image = np.asarray(Image.open(tmp_path / "robot.png").convert("RGB")).astype(int)[HEADER_PX + 2:]
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    body = ((b > r + 60) & (b > g + 30)).sum()
+    foot = ((r > g + 60) & (r > b + 60)).sum()
+    terrain = ((r > b + 15) & (g > b + 5) & (r < 200)).sum()
+    dark = ((r < 60) & (g < 60) & (b < 60)).sum()
+    assert body > 500 and foot > 30 and terrain > 0.05 * r.size and dark > 50, (body, foot, terrain, dark)

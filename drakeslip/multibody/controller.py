@@ -12,9 +12,9 @@ the ground and swings toward the touchdown angle; DESCENT, from apex (vertical v
 touchdown (the leg compressing): the leg extends to its stop and the hip keeps it at the angle that lands the foot
 on the commanded foothold, recomputed each period from the body's ballistic path; STANCE, to liftoff (the leg back
 at its stop): the hip torque keeps the body level (within the friction cone's share of the leg force) and the leg
-actuator pushes during extension until the body has the energy the next planned apex needs. The energy each hop
-falls short of at its apex (touchdown impact, liftoff of the unsprung foot, damping) is learned as a bias added to
-the next targets.
+actuator pushes during extension until the body has the energy the next planned apex needs plus what the
+unsprung foot's liftoff will take. The energy each hop still falls short of at its apex (damping, the model's
+errors) is learned as a bias added to the next targets.
 
 Parameters: ``RobotParams`` (the robot the controller knows), ``inject_energy`` (False: the leg actuator only
 retracts and extends the leg in flight, so nothing returns the energy each hop loses).
@@ -48,7 +48,7 @@ LIFTOFF_MARGIN = 0.002    # [m] the leg within this of its stop after MIN_STANCE
 MIN_STANCE = 0.03         # [s]
 BIAS_GAIN = 0.5           # share of an apex's energy error learned into the bias
 FLIGHT_GAINS = (150.0, 6.0)    # hip PD on the absolute leg angle in flight [N m/rad, N m s/rad]
-STANCE_GAINS = (200.0, 60.0)   # hip PD in stance on the body pitch and on the angular momentum (as a rate)
+STANCE_GAINS = (100.0, 60.0)   # hip PD in stance on the body pitch and on the angular momentum (as a rate)
 LEG_GAINS = (3000.0, 40.0)     # leg PD on extension in flight [N/m, N s/m] (the spring is cancelled)
 FRICTION_SHARE = 0.4      # in stance the hip torque asks for at most this share of the friction cone
 
@@ -69,6 +69,21 @@ class FootholdCommand:
     speed: float = 0.0
     apex_errors: tuple = ()
     angle_errors: tuple = ()
+
+    def __deepcopy__(self, memo):
+        return self   # immutable (frozen, tuples, a read-only terrain): Drake's state copies may share it
+
+
+class Heights:
+    """A terrain's height at a scalar x, in plain Python (``Terrain.height_at`` is made for arrays)."""
+
+    def __init__(self, terrain: Terrain):
+        self.terrain, self.x0, self.cell = terrain, terrain.x0, terrain.cell
+        self.values = terrain.heights.tolist()
+        self.last = len(self.values) - 1
+
+    def __call__(self, x: float) -> float:
+        return self.values[min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.last)]
 
 
 def apex_energy(z: float, xdot: float, gravity: float) -> float:
@@ -117,6 +132,8 @@ class HopperController(LeafSystem):
         self.params, self.layout, self.inject_energy = params, layout, bool(inject_energy)
         self._q, self._v = list(layout.q), list(layout.v)
         self.pitch_inertia = params.body_pitch_inertia
+        self._lookup = None
+        self.foot_share = params.foot_mass / params.slip.mass
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
         m_total = params.total_mass
         reach = params.rest_extension - RETRACT
@@ -161,13 +178,18 @@ class HopperController(LeafSystem):
         return spin + sum(m * ((r[0] - cx) * (v[1] - vz) - (r[1] - cz) * (v[0] - vx))
                           for m, r, v in zip(masses, points, rates))
 
+    def _heights(self, terrain: Terrain) -> Heights:
+        if self._lookup is None or self._lookup.terrain is not terrain:
+            self._lookup = Heights(terrain)
+        return self._lookup
+
     def _clearance(self, x, z, leg, angle, target, terrain: Terrain) -> float:
         """The foot's height above the highest ground between it and where the swing to ``target`` takes it."""
         reach = leg + self.params.foot_radius
         foot_x = x + leg * math.sin(angle)
         lo, hi = sorted((foot_x, x + reach * math.sin(target)))
         cells = terrain.heights[terrain.index(lo):terrain.index(hi) + 1]
-        ground = float(cells.max()) if cells.size else terrain.height_at(foot_x)
+        ground = float(cells.max()) if cells.size else self._heights(terrain)(foot_x)
         return z - leg * math.cos(angle) - self.params.foot_radius - ground
 
     def raibert_angle(self, xdot: float, speed: float) -> float:
@@ -224,14 +246,16 @@ class HopperController(LeafSystem):
             force = 0.0
             if self.inject_energy and legd > 0.0:
                 energy = g * z + 0.5 * (xd * xd + zd * zd) + 0.5 * slip.stiffness * (rest - leg) ** 2 / slip.mass
-                need = s[TARGET] + s[BIAS] - energy
+                # the foot, at rest on the ground, is jerked to the body's speed at liftoff: a plastic impact
+                liftoff_loss = 0.5 * self.foot_share * (xd * xd + zd * zd)
+                need = s[TARGET] + liftoff_loss + s[BIAS] - energy
                 force = slip.mass * need / max(rest - leg, 0.01)
                 force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
         else:
             step = int(s[STEP])
             if step < len(command.footholds):
                 foothold = command.footholds[step]
-                ground = command.terrain.height_at(foothold)
+                ground = self._heights(command.terrain)(foothold)
                 ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
                 target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
                                          slip.leg_length - p.foot_radius, p.foot_radius, g)

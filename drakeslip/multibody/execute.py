@@ -15,10 +15,9 @@ from drakeslip.multibody.robot import RobotParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
 
-# The energy per kg of body a hop loses (touchdown impact, the foot's liftoff, damping) grows with speed; the
-# controller starts from this estimate, a + b xdot^2 [J/kg], the steady bias it learns hopping on flat ground,
-# and keeps learning from each apex.
-LOSS_PRIOR = (0.16, 0.07)
+# The energy per kg of body a hop loses beyond the foot's liftoff (which the controller accounts for), a + b
+# xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
+LOSS_PRIOR = (0.10, 0.035)
 
 _built: dict = {}
 
@@ -52,9 +51,7 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     errors = () if apex_errors is None else tuple(tuple(map(float, e)) for e in np.asarray(apex_errors))
-    told = ApexState(*(np.asarray(apex) + (errors[0] if errors else 0.0)))
-    energy = apex_energy(told.z, told.xdot, robot.slip.gravity)
-    command = FootholdCommand(footholds, sensed_terrain or terrain, energy, 0, 0.0, errors,
+    command = FootholdCommand(footholds, sensed_terrain or terrain, None, 0, 0.0, errors,
                               () if angle_errors is None else tuple(map(float, np.ravel(angle_errors))))
     set_apex_state(hd, context, apex, _first_angle(apex, footholds, command.terrain, robot),
                    loss_prior(apex.xdot))

@@ -16,12 +16,12 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
-from drakeslip.multibody.controller import APEXES, ASCENT, DESCENT, PHASE, STANCE, TD_ANGLE, TOUCHDOWN_X
+from drakeslip.multibody.controller import ASCENT, DESCENT, PHASE, STANCE, TD_ANGLE, TOUCHDOWN_X, Heights
 from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
 
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
-SLIP_DISTANCE = 0.03   # [m] foot travel in one stance that counts as slipping
+SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
 HOP_SECONDS = 5.0      # a hop longer than this is a STALL, as on the SLIP (drakeslip.rollout)
 BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (hopper.sdf)
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
@@ -64,6 +64,7 @@ class HopMonitor:
         self.plant_context = hd.plant.GetMyContextFromRoot(root_context)
         self.controller_context = hd.controller.GetMyContextFromRoot(root_context)
         self.log = HopLog()
+        self.height = Heights(terrain)
         self.phase = None
         self.phase_start = 0.0
         self.apexes = 0
@@ -100,7 +101,7 @@ class HopMonitor:
         return EventStatus.Succeeded()
 
     def _failure(self, t, x, z, xd, zd, pitch, hip, leg, phase, c):
-        terrain = self.terrain
+        terrain, height = self.terrain, self.height
         if abs(pitch) > PITCH_LIMIT:
             return FailureMode.BODY_COLLISION, f"fall: the body pitched to {pitch:+.2f} rad"
         cp, sp = math.cos(pitch), math.sin(pitch)
@@ -108,24 +109,27 @@ class HopMonitor:
             # the body box's corners: body x turns toward z with positive pitch
             cx = x + u * BODY_HALF[0] * cp - w * BODY_HALF[1] * sp
             cz = z + u * BODY_HALF[0] * sp + w * BODY_HALF[1] * cp
-            if cz < terrain.height_at(cx):
+            if cz < height(cx):
                 return FailureMode.BODY_COLLISION, f"fall: the body touched the ground at x={cx:.2f}"
         angle = pitch + hip
         fx, fz = x + leg * math.sin(angle), z - leg * math.cos(angle) - self.radius
         if leg <= self.bottom + 1e-3:
             return FailureMode.BOTTOM_OUT, "the leg reached its bottom-out stop"
         reach = self.radius - 2e-3   # the ball's side, less the contact's compliance
-        around = max(terrain.height_at(fx - reach), terrain.height_at(fx + reach))
-        if fz < around - 0.01 and not terrain.is_ditch_at(fx):
+        around = max(height(fx - reach), height(fx + reach))
+        in_ditch = height(fx) <= terrain.ditch_height
+        if fz < around - 0.01 and not in_ditch:
             return FailureMode.FOOT_COLLISION, f"the foot pressed into a step's face at x={fx:.2f}"
-        if terrain.is_ditch_at(fx):
+        if in_ditch:
             rim = _rim_below(terrain, fx)
             if fz < rim - 0.02:
                 return FailureMode.FOOT_COLLISION, f"the foot went into a ditch at x={fx:.2f}"
-        if phase == ASCENT and t - self.phase_start > TRIP_GRACE and fz < terrain.height_at(fx) + 1e-3:
+        if phase == ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
             return FailureMode.TRIP, f"the swinging foot caught the ground at x={fx:.2f}"
-        if phase == STANCE and abs(fx - c[TOUCHDOWN_X]) > SLIP_DISTANCE:
-            return FailureMode.SLIP, f"the foot slid {fx - c[TOUCHDOWN_X]:+.3f} m in stance"
+        # the ball rolls as the leg turns over it: its centre moves r (angle at touchdown - angle) with no slip
+        slide = fx - c[TOUCHDOWN_X] - self.radius * (c[TD_ANGLE] - angle)
+        if phase == STANCE and abs(slide) > SLIP_DISTANCE:
+            return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
         if t - self.phase_start > HOP_SECONDS:
             return FailureMode.STALL, "no hop completed"
         if phase == DESCENT and self.phase_start == t and xd <= 0.0 and self._target_ahead(x, c):

@@ -21,7 +21,8 @@ def _monotonic_ns(typingctx):
     def codegen(context, builder, signature, args):
         i64, i32 = ir.IntType(64), ir.IntType(32)
         timespec = ir.LiteralStructType([i64, i64])
-        clock_gettime = cgutils.get_or_insert_function(builder.module, ir.FunctionType(i32, [i32, timespec.as_pointer()]),
+        prototype = ir.FunctionType(i32, [i32, timespec.as_pointer()])
+        clock_gettime = cgutils.get_or_insert_function(builder.module, prototype,
                                                        "clock_gettime")
         ts = cgutils.alloca_once(builder, timespec)
         builder.call(clock_gettime, [ir.Constant(i32, CLOCK_MONOTONIC), ts])

@@ -54,10 +54,11 @@ def _conv_relu(x, w, b):
     y = np.zeros((n_out, n))
     for o in range(n_out):
         for i in range(n_in):
-            for t in range(taps):
-                wt = w[o, i, t]
-                for c in range(n):
-                    y[o, c] += wt * padded[i, c + t]
+            for c in range(n):
+                acc = y[o, c]
+                for t in range(taps):
+                    acc += w[o, i, t] * padded[i, c + t]
+                y[o, c] = acc
         for c in range(n):
             y[o, c] = max(y[o, c] + b[o], 0.0)
     return y
@@ -95,9 +96,10 @@ def first_gates(encoding, net):
 
 
 @njit(cache=True)
-def first_step_logits(apex_features, gates_in, encoding, net):
+def first_step_logits(apex_features, gates_in, encoding, net, bins):
     """Logits of the model's first step from an apex (its three features), given the window's ``encoding`` and
-    its first layer's input gates ``gates_in``."""
+    its first layer's input gates ``gates_in``: of every bin when ``bins`` is empty, else of those ``bins`` (the
+    rest left at -inf)."""
     g0_w, g0_b, w_ih, w_hh, b, head_w, head_b = net[0], net[1], net[9], net[10], net[11], net[12], net[13]
     layers, hidden = w_hh.shape[0], w_hh.shape[1]
     state = np.empty(g0_w.shape[1])
@@ -120,13 +122,21 @@ def first_step_logits(apex_features, gates_in, encoding, net):
             cj = _sigmoid(gates[hidden + j]) * c[j] + _sigmoid(gates[j]) * tanh(gates[2 * hidden + j])
             x[j] = _sigmoid(gates[3 * hidden + j]) * tanh(cj)
     logits = np.empty(head_w.shape[1])
-    affine(x, head_w, head_b, logits)
+    if bins.shape[0] == 0:
+        affine(x, head_w, head_b, logits)
+        return logits
+    logits[:] = -math.inf
+    for b in bins:
+        acc = 0.0
+        for k in range(hidden):
+            acc += x[k] * head_w[k, b]
+        logits[b] = acc + head_b[b]
     return logits
 
 
 @njit(cache=True)
 def masked_softmax(logits, temperature, mask):
-    """softmax(logits / temperature) with the bins where ``mask`` is True at probability 0."""
+    """softmax(logits / temperature) with the bins where ``mask`` is True at probability 0 (those at -inf too)."""
     p = np.empty(logits.shape[0])
     top = -math.inf
     for j in range(p.shape[0]):
@@ -134,7 +144,7 @@ def masked_softmax(logits, temperature, mask):
         top = max(top, p[j])
     total = 0.0
     for j in range(p.shape[0]):
-        p[j] = math.exp(p[j] - top)
+        p[j] = math.exp(p[j] - top) if p[j] > -math.inf else 0.0
         total += p[j]
     for j in range(p.shape[0]):
         p[j] /= total

@@ -17,7 +17,8 @@ from planners.core.clock import CONTROLLER, MODEL, N_SLOTS, STEP_MAP, now
 from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPACING, TOLERANCE, UNTIL,
                                 WINDOW_END, aim_candidate, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
-from planners.core.tree import add_children, heap_push, new_tree, pop_next
+from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted
+from planners.core.tree import add_children, heap_push, new_tree
 
 # fields of the window settings tuple (``window_settings`` in planners/core/search.py)
 N_CELLS, ANCHOR, S0, LENGTH, SPEED, DITCH_FLOOR, SUBCELLS, MASK_DITCHES, TEMPERATURE, FLOOR = range(10)
@@ -79,19 +80,25 @@ def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, encodings, gates
         encodings.append(code)
         gates.append(first_gates(code, model))
     row = keys[key]
-    logits = first_step_logits(features, gates[row], encodings[row], model)
     subcells = int(win[SUBCELLS])
-    mask = np.zeros(logits.shape[0], np.bool_)
+    n_bins = model[13].shape[0]
+    bin_width = terr[2] / subcells
+    bins = np.empty(x_l.shape[0], np.int64)
+    for i in range(x_l.shape[0]):
+        bins[i] = int(math.floor((x_l[i] - x_start) / bin_width))
+    # The draw's order is that of p scaled by any positive factor (``weighted_order``), so without a floor the
+    # candidates' probabilities need not be normalized over every bin: the head runs for their bins alone.
+    wanted = bins[(bins >= 0) & (bins < n_bins)] if win[FLOOR] == 0.0 else np.empty(0, np.int64)
+    logits = first_step_logits(features, gates[row], encodings[row], model, wanted)
+    mask = np.zeros(n_bins, np.bool_)
     if win[MASK_DITCHES]:
-        for j in range(logits.shape[0]):
+        for j in range(n_bins):
             mask[j] = ditch[j // subcells]
     probs = masked_softmax(logits, win[TEMPERATURE], mask)
-    bin_width = terr[2] / subcells
     p = np.zeros(x_l.shape[0])
     for i in range(x_l.shape[0]):
-        b = int(math.floor((x_l[i] - x_start) / bin_width))
-        if 0 <= b < probs.shape[0]:
-            p[i] = probs[b]
+        if 0 <= bins[i] < n_bins:
+            p[i] = probs[bins[i]]
     return p
 
 
@@ -119,8 +126,8 @@ def _grown(a, need):
 
 
 @njit(cache=True)
-def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, width, target_x, weights, reexpand,
-                       n_sequences, max_nodes, max_ode_calls, deadline):
+def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, width, rob, target_x, weights,
+                       reexpand, n_sequences, max_nodes, max_ode_calls, deadline):
     """``best_first`` with LSTM-guided sampling's expansion (grid settings ``s``, window settings ``win``, the
     model's arrays ``model``, random draws from ``rng``, ``width`` candidates flown at a time). Returns what
     ``grid_best_first`` returns."""
@@ -128,7 +135,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     size = 1
     keys, ids, heap = np.empty(256), np.empty(256, np.int64), 0
     goals, expanded = np.empty(n_sequences, np.int64), np.empty(max_nodes, np.int64)
-    n_goals = ode_calls = expansions = 0
+    n_goals = ode_calls = expansions = n_expanded = 0  # expansions also count nodes that failed the check
     slots = np.zeros(N_SLOTS)
     window_keys = Dict.empty(types.int64, types.int64)
     encodings, gates = [np.empty(0)], [np.empty(0)]  # typed by their first entry, which no key names
@@ -142,6 +149,10 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     cand_x, cand_theta, cand_order = np.empty(1024), np.empty(1024), np.empty(1024, np.int64)
     n_cand = 0
     out = np.empty(N_OUT)
+    flight_of, flights = Dict.empty(types.int64, types.int64), np.empty((16,) + rob[STATES].shape)
+    if rob[DEPTH] > 0:
+        flight_of[0] = 0
+        flights[0] = rob[STATES]
     node = 0
     stop = EXHAUSTED
     while True:
@@ -154,80 +165,88 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
         if now() >= deadline:
             stop = TIME
             break
-        x, z, v = tree[3][node, 0], tree[3][node, 1], tree[3][node, 2]
-        if node not in slot_of:
-            x_l = grid_candidates(x, z, v, terr, p, sin_a, cos_a, s[SPACING], s[PAD], s[UNTIL])
-            t0 = now()
-            prob = node_probabilities(x, z, v, x_l, terr, win, model, window_keys, encodings, gates)
-            slots[MODEL] += now() - t0
-            order = weighted_order(np.maximum(prob, win[FLOOR]), rng)
-            slot = len(slot_of)
-            slot_of[node] = slot
-            start, count, n_order, pos, n_ready = (_grown(start, slot + 1), _grown(count, slot + 1),
-                                                   _grown(n_order, slot + 1), _grown(pos, slot + 1),
-                                                   _grown(n_ready, slot + 1))
-            ready = _grown(ready, slot + 1)
-            cand_x, cand_theta = _grown(cand_x, n_cand + x_l.shape[0]), _grown(cand_theta, n_cand + x_l.shape[0])
-            cand_order = _grown(cand_order, n_cand + x_l.shape[0])
-            start[slot], count[slot], n_order[slot], pos[slot], n_ready[slot] = n_cand, x_l.shape[0], order.shape[0], 0, 0
-            cand_x[n_cand:n_cand + x_l.shape[0]] = x_l
-            cand_theta[n_cand:n_cand + x_l.shape[0]] = math.nan
-            cand_order[n_cand:n_cand + order.shape[0]] = order
-            n_cand += x_l.shape[0]
-        slot = slot_of[node]
-        first, n = start[slot], count[slot]
-        x_l, theta, order = cand_x[first:first + n], cand_theta[first:first + n], cand_order[first:first + n_order[slot]]
-        ok, apexes, tried = np.zeros(n, np.bool_), np.zeros((n, 3)), np.empty(n, np.int64)
-        n_tried = calls = 0
-        while pos[slot] < order.shape[0] or n_ready[slot] > 0:
-            while n_ready[slot] < width and pos[slot] < order.shape[0]:  # aiming is the cost: lazily
-                chunk = order[pos[slot]:pos[slot] + 4 * width]
-                pos[slot] += chunk.shape[0]
+        if node != FAILED_CHECK:
+            x, z, v = tree[3][node, 0], tree[3][node, 1], tree[3][node, 2]
+            if node not in slot_of:
+                x_l = grid_candidates(x, z, v, terr, p, sin_a, cos_a, s[SPACING], s[PAD], s[UNTIL])
                 t0 = now()
-                for i in chunk:
-                    theta[i] = aim_candidate(x, z, v, x_l[i], terr, net, s[EDGE], s[MAX_ANGLE])
-                slots[CONTROLLER] += now() - t0
-                for i in chunk:
-                    if theta[i] == theta[i]:
-                        ready[slot, n_ready[slot]] = i
-                        n_ready[slot] += 1
-            batch = min(width, n_ready[slot])
-            hit = False
-            t0 = now()
-            for b in range(batch):
-                i = ready[slot, b]
-                tried[n_tried] = i
-                n_tried += 1
-                ok[i] = fly(x, z, v, theta[i], x_l[i], terr, p, s[TOLERANCE], s[MIN_SPEED], out)
-                apexes[i, 0], apexes[i, 1], apexes[i, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
-                hit = hit or ok[i]
-            slots[STEP_MAP] += now() - t0
-            ready[slot, :n_ready[slot] - batch] = ready[slot, batch:n_ready[slot]].copy()
-            n_ready[slot] -= batch
-            calls += batch
-            if hit:
-                break
-        idx = np.sort(tried[:n_tried])
-        angles, footholds, kid_apexes, d, beyond = children_of(x_l[idx], theta[idx], ok[idx], apexes[idx],
-                                                               s[WINDOW_END], s[AT_FAILURE])
-        more = pos[slot] < order.shape[0] or n_ready[slot] > 0
-        expanded[expansions] = node
-        expansions += 1
-        ode_calls += calls
-        if beyond and node > 0:
-            goals[n_goals] = node
-            n_goals += 1
-            if n_goals >= n_sequences:
-                stop = GOALS
-                break
-        tree, size, keys, ids, heap = add_children(tree, size, node, angles, footholds, kid_apexes, d, target_x,
-                                                   weights, keys, ids, heap)
-        if more:  # back in the queue behind its own children (the root: behind everything)
-            keys, ids, heap = heap_push(keys, ids, heap, tree[4][node] + reexpand, node)
-        node, heap, n_goals = pop_next(tree, keys, ids, heap, goals, n_goals, target_x)
+                prob = node_probabilities(x, z, v, x_l, terr, win, model, window_keys, encodings, gates)
+                slots[MODEL] += now() - t0
+                order = weighted_order(np.maximum(prob, win[FLOOR]), rng)
+                slot = len(slot_of)
+                slot_of[node] = slot
+                start, count, n_order, pos, n_ready = (_grown(start, slot + 1), _grown(count, slot + 1),
+                                                       _grown(n_order, slot + 1), _grown(pos, slot + 1),
+                                                       _grown(n_ready, slot + 1))
+                ready = _grown(ready, slot + 1)
+                cand_x, cand_theta = _grown(cand_x, n_cand + x_l.shape[0]), _grown(cand_theta, n_cand + x_l.shape[0])
+                cand_order = _grown(cand_order, n_cand + x_l.shape[0])
+                start[slot], count[slot], n_order[slot] = n_cand, x_l.shape[0], order.shape[0]
+                pos[slot], n_ready[slot] = 0, 0
+                cand_x[n_cand:n_cand + x_l.shape[0]] = x_l
+                cand_theta[n_cand:n_cand + x_l.shape[0]] = math.nan
+                cand_order[n_cand:n_cand + order.shape[0]] = order
+                n_cand += x_l.shape[0]
+            slot = slot_of[node]
+            first, n = start[slot], count[slot]
+            x_l, theta = cand_x[first:first + n], cand_theta[first:first + n]
+            order = cand_order[first:first + n_order[slot]]
+            ok, apexes, tried = np.zeros(n, np.bool_), np.zeros((n, 3)), np.empty(n, np.int64)
+            n_tried = calls = 0
+            while pos[slot] < order.shape[0] or n_ready[slot] > 0:
+                while n_ready[slot] < width and pos[slot] < order.shape[0]:  # aiming is the cost: lazily
+                    chunk = order[pos[slot]:pos[slot] + 4 * width]
+                    pos[slot] += chunk.shape[0]
+                    t0 = now()
+                    for i in chunk:
+                        theta[i] = aim_candidate(x, z, v, x_l[i], terr, net, s[EDGE], s[MAX_ANGLE])
+                    slots[CONTROLLER] += now() - t0
+                    for i in chunk:
+                        if theta[i] == theta[i]:
+                            ready[slot, n_ready[slot]] = i
+                            n_ready[slot] += 1
+                batch = min(width, n_ready[slot])
+                hit = False
+                t0 = now()
+                for b in range(batch):
+                    i = ready[slot, b]
+                    tried[n_tried] = i
+                    n_tried += 1
+                    ok[i] = fly(x, z, v, theta[i], x_l[i], terr, p, s[TOLERANCE], s[MIN_SPEED], out)
+                    apexes[i, 0], apexes[i, 1], apexes[i, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
+                    hit = hit or ok[i]
+                slots[STEP_MAP] += now() - t0
+                ready[slot, :n_ready[slot] - batch] = ready[slot, batch:n_ready[slot]].copy()
+                n_ready[slot] -= batch
+                calls += batch
+                if hit:
+                    break
+            idx = np.sort(tried[:n_tried])
+            angles, footholds, kid_apexes, d, beyond = children_of(x_l[idx], theta[idx], ok[idx], apexes[idx],
+                                                                   s[WINDOW_END], s[AT_FAILURE])
+            more = pos[slot] < order.shape[0] or n_ready[slot] > 0
+            expanded[n_expanded] = node
+            n_expanded += 1
+            expansions += 1
+            ode_calls += calls
+            if beyond and node > 0:
+                goals[n_goals] = node
+                n_goals += 1
+                if n_goals >= n_sequences:
+                    stop = GOALS
+                    break
+            tree, size, keys, ids, heap = add_children(tree, size, node, angles, footholds, kid_apexes, d, target_x,
+                                                       weights, keys, ids, heap)
+            if more:  # back in the queue behind its own children (the root: behind everything)
+                keys, ids, heap = heap_push(keys, ids, heap, tree[4][node] + reexpand, node)
+        node, heap, n_goals, hops, flights = pop_admitted(tree, keys, ids, heap, goals, n_goals, target_x, rob,
+                                                          flight_of, flights, terr, net, slots)
+        ode_calls += hops
+        if node == FAILED_CHECK:  # closed: counts as an expansion with no children
+            expansions += 1
         if n_goals >= n_sequences:
             stop = GOALS
             break
         if node == -1:
             break
-    return tree, size, goals[:n_goals], expanded[:expansions], ode_calls, expansions, stop, slots
+    return tree, size, goals[:n_goals], expanded[:n_expanded], ode_calls, expansions, stop, slots

@@ -98,20 +98,3 @@ def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weigh
         apex[i] = apexes[j]
         keys, ids, heap = heap_push(keys, ids, heap, c, i)
     return tree, size + k, keys, ids, heap
-
-
-@njit(cache=True)
-def pop_next(tree, keys, ids, heap, goals, n_goals, target_x):
-    """Pop nodes until one to expand: a popped node whose foothold passes ``target_x`` is a goal (``goals`` fills
-    up to its size, then the search is done). Returns (the node to expand, -1 when none, the heap's size, the
-    number of goals)."""
-    while heap > 0:
-        i, heap = heap_pop(keys, ids, heap)
-        if tree[2][i] >= target_x:
-            goals[n_goals] = i
-            n_goals += 1
-            if n_goals >= goals.shape[0]:
-                return -1, heap, n_goals
-            continue
-        return i, heap, n_goals
-    return -1, heap, n_goals

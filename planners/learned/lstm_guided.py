@@ -14,6 +14,7 @@ from planners.core.model import ModelArrays
 from planners.learned.inference import softmax
 from planners.learned.inputs import SAME_CELL, encode_window, model_cell
 from planners.learned.lstm import FootstepDistribution, load_model
+from planners.search.robust import Robustness
 from planners.search.step_space import StepSpacePlanner, attempt_name
 from planners.search.tree import Children, CostWeights, best_first, run_attempts
 
@@ -144,12 +145,12 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
     def _search(self, problem, branching, robust=None):
         window = self.core_window(problem)
-        if window is not None and robust is None:
+        if window is not None:
             from planners.core.search import sampled_search  # compiled on first use: imports stay light
 
             settings = self.core_settings(problem, self.spacings(problem.units)[0], problem.window_end)
             return sampled_search(problem, settings, window, self.core_model, np.random.default_rng(self.seed),
-                                  1 if self.lazy else branching, self.controller.for_params(problem.params),
+                                  1 if self.lazy else branching, robust, self.controller.for_params(problem.params),
                                   self.cost_weights, self.n_sequences, self.search_budget(robust), problem.timing)
         sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
         terrain, params = problem.terrain, problem.params
@@ -198,7 +199,8 @@ def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
     if not _COMPILED:
         _COMPILED.append(True)
         problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
-        planner._search(problem, 1)
+        for robust in (None, Robustness()):
+            planner._search(problem, 1, robust)
 
 
 def core_window_settings(problem, net: FootstepDistribution, temperature: float, floor: float):

@@ -151,11 +151,12 @@ class StepSpacePlanner(Planner):
         return spacings if robust is None or robust.fallback_grids else spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
-        if self.step_map == "fast" and robust is None:
+        if self.step_map == "fast":
             from planners.core.search import grid_search  # compiled on first use: --help and imports stay light
 
-            return grid_search(problem, self.core_settings(problem, spacing), self.controller.for_params(problem.params),
-                               self.cost_weights, self.n_sequences, self.budget, problem.timing)
+            return grid_search(problem, self.core_settings(problem, spacing), robust,
+                               self.controller.for_params(problem.params), self.cost_weights, self.n_sequences,
+                               self.search_budget(robust), problem.timing)
         terrain, params = problem.terrain, problem.params
 
         def expand(tree, node) -> Children:
@@ -254,8 +255,9 @@ def warm_up_core() -> None:
 
     planner = StepSpacePlanner(max_nodes=1, step_map="drake")  # a planner that does not warm up the core itself
     problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
-    grid_search(problem, planner.core_settings(problem, GRID_SPACING), planner.controller, planner.cost_weights, 1,
-                Budget(max_nodes=1), problem.timing)
+    for robust in (None, Robustness()):
+        grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
+                    planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
 
 
 def attempt_name(robustness: Robustness | None) -> str:
