@@ -17,9 +17,9 @@ speed, drop and offset in the units of the hopper the network was trained for (s
 over the length factor) and polishes with the hopper's own L0 and g. For the trained hopper the factors are exactly
 1.0 and the angles are the trained controller's to the bit.
 
-Inference runs compiled (``fast_controller.py``), not in torch, whose dispatch costs more than a 3-64-64-64-1 MLP's
-arithmetic; the planning core calls the same compiled function, so a planner's angles are the controller's to the
-bit. Torch is needed only to read and write the weights file (training is controller_training.py).
+Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is needed
+only to read and write the weights file (training is controller_training.py). The planning core aims its candidates
+with the same computation compiled (``fast_controller.aim_rows``, from ``arrays()``), to the bit.
 
 ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
 ``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
@@ -112,9 +112,13 @@ class StepLengthController:
 
     # ---- inference -----------------------------------------------------------------------------------
     def _forward(self, feats: np.ndarray) -> np.ndarray:
-        from drakeslip.fast_controller import network_angles  # compiled on first use: imports stay light
-
-        return network_angles(np.ascontiguousarray(feats, dtype=np.float64), self.arrays().astuple())
+        if self.feature_scale is not None:
+            feats = feats / self.feature_scale
+        x = (feats - self.feature_mean) / self.feature_std
+        for w, b in self._layers:
+            x = np.tanh(x @ w + b)
+        theta = (x @ self._head[0] + self._head[1])[:, 0] * self.config.max_angle
+        return np.minimum(np.maximum(theta, -self.config.max_angle), self.config.max_angle)
 
     def leg_angles(self, apex, footholds, terrain: Terrain, refine: bool | None = None) -> np.ndarray:
         """Leg angles for many desired footholds: from one apex (x, z, xdot), or one apex row per foothold."""

@@ -1,19 +1,15 @@
-"""The step-length controller's network and polish, compiled: ``StepLengthController.leg_angles`` for one apex and
-one foothold at a time, callable from other compiled code (the planning core aims every candidate foothold with
-it).
+"""The step-length controller for compiled code: ``aim_rows`` is ``StepLengthController.leg_angles`` to the bit,
+callable from the planning core (planners/core), which aims every batch of candidate footholds with it.
 
-The network's layers are the controller's weights (``ControllerArrays``). Each product is summed in input order
-(``affine``), so an angle is the same on every machine (a BLAS kernel's order of summation depends on the
-processor), and
-``StepLengthController.leg_angles`` runs these same functions, so a planner's angles are the controller's to the
-bit."""
+To be the controller's to the bit, ``aim_rows`` multiplies by numpy's BLAS routine (numba's ``np.dot`` calls the
+same one) and takes numpy's tanh (its vectorized tanh rounds otherwise than the C library's) in one call per layer;
+the polish is the controller's compiled one (``drakeslip.leg_aim.polish_one``)."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit
+from numba import njit, objmode
 
 from drakeslip.leg_aim import polish_one
 
@@ -44,110 +40,38 @@ class ControllerArrays:
                 self.scale, self.max_angle, self.leg_length, self.gravity, self.refine)
 
 
-@njit(cache=True)
-def tanh(x):
-    """tanh from one exp (a quarter of libm's tanh's cost), within 3e-16 of it."""
-    e = math.exp(-2.0 * abs(x))
-    return math.copysign((1.0 - e) / (1.0 + e), x)
-
-
-# tanh(x) ~ x P(x^2) / Q(x^2) on |x| <= TANH_CLAMP (Eigen's rational approximation of tanh, float32-accurate)
-TANH_P = (4.89352455891786e-03, 6.37261928875436e-04, 1.48572235717979e-05, 5.12229709037114e-08,
-          -8.60467152213735e-11, 2.00018790482477e-13, -2.76076847742355e-16)
-TANH_Q = (4.89352518554385e-03, 2.26843463243900e-03, 1.18534705686654e-04, 1.19825839466702e-06)
-TANH_CLAMP = 7.90531110763549805
+def _numpy_tanh(x):
+    return np.tanh(x)
 
 
 @njit(cache=True)
-def rational_tanh(x):
-    """tanh to float32's precision (within 3e-7) with no library call, so a layer's activations vectorize: the
-    controller's network was trained in float32, and its angle only starts the Newton polish."""
-    x = min(max(x, -TANH_CLAMP), TANH_CLAMP)
-    x2 = x * x
-    p = TANH_P[6]
-    for k in range(5, -1, -1):
-        p = p * x2 + TANH_P[k]
-    q = TANH_Q[3]
-    for k in range(2, -1, -1):
-        q = q * x2 + TANH_Q[k]
-    return x * p / q
-
-
-@njit(cache=True, fastmath={"contract"})
-def affine(x, w, b, out):
-    """out = x @ w + b (w stored (inputs, outputs)): each output summed in input order with fused multiply-adds,
-    the outputs side by side and four inputs a pass, so the sums vectorize without reordering."""
-    n_in, n_out = w.shape
-    out[:] = 0.0
-    k = 0
-    while k + 4 <= n_in:
-        x0, x1, x2, x3 = x[k], x[k + 1], x[k + 2], x[k + 3]
-        if x0 != 0.0 or x1 != 0.0 or x2 != 0.0 or x3 != 0.0:
-            for j in range(n_out):
-                acc = out[j]
-                acc += x0 * w[k, j]
-                acc += x1 * w[k + 1, j]
-                acc += x2 * w[k + 2, j]
-                acc += x3 * w[k + 3, j]
-                out[j] = acc
-        k += 4
-    while k < n_in:
-        xk = x[k]
-        for j in range(n_out):
-            out[j] += xk * w[k, j]
-        k += 1
-    for j in range(n_out):
-        out[j] += b[j]
+def _tanh_rows(x):
+    """numpy's tanh of a matrix (its vectorized tanh rounds otherwise than the C library's, which compiled code
+    calls): one call per layer, so the batch's angles are numpy's."""
+    with objmode(y="float64[:, ::1]"):
+        y = _numpy_tanh(x)
+    return y
 
 
 @njit(cache=True)
-def _dense_tanh(x, w, b, out):
-    """out = tanh(x @ w + b)."""
-    affine(x, w, b, out)
-    for j in range(out.shape[0]):
-        out[j] = rational_tanh(out[j])
-
-
-@njit(cache=True, fastmath={"contract"})
-def _dot(x, w):
-    acc = 0.0
-    for k in range(w.shape[0]):
-        acc += x[k] * w[k]
-    return acc
-
-
-@njit(cache=True)
-def network_angle(speed, drop, offset, net):
-    """The network's leg angle (clipped to its max_angle) for one (speed, drop, foothold offset)."""
-    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle = net[:10]
-    h = w_in.shape[1]
-    x = np.empty(3)
-    x[0] = (speed / scale[0] - mean[0]) / std[0]
-    x[1] = (drop / scale[1] - mean[1]) / std[1]
-    x[2] = (offset / scale[2] - mean[2]) / std[2]
-    a, b = np.empty(h), np.empty(h)
-    _dense_tanh(x, w_in, b_in, a)
+def aim_rows(apexes, footholds, grounds, net):
+    """``StepLengthController.leg_angles`` for one apex row (x, z, xdot) per foothold, to the bit: the same features,
+    the network's products by the same BLAS routine numpy calls (``np.dot``), numpy's tanh, the same polish."""
+    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle, leg, gravity, refine = net
+    n = footholds.shape[0]
+    feats = np.empty((n, 3))
+    for i in range(n):
+        feats[i, 0] = apexes[i, 2]
+        feats[i, 1] = apexes[i, 1] - grounds[i]
+        feats[i, 2] = footholds[i] - apexes[i, 0]
+    x = (feats / scale - mean) / std
+    x = _tanh_rows(np.dot(x, w_in) + b_in)
     for layer in range(w_hidden.shape[0]):
-        _dense_tanh(a, w_hidden[layer], b_hidden[layer], b)
-        a, b = b, a
-    theta = (_dot(a, w_head) + b_head) * max_angle
-    return min(max(theta, -max_angle), max_angle)
-
-
-@njit(cache=True)
-def aim(x, z, xdot, foothold, ground, net):
-    """The controller's leg angle from apex (x, z, xdot) to ``foothold``, whose ground height is ``ground``."""
-    speed, drop, offset = xdot, z - ground, foothold - x
-    theta = network_angle(speed, drop, offset, net)
-    if net[12]:
-        theta = polish_one(speed, drop, offset, theta, net[10], net[11], net[9])
+        x = _tanh_rows(np.dot(x, w_hidden[layer]) + b_hidden[layer])
+    theta = np.empty(n)
+    head = np.dot(x, w_head.reshape(-1, 1))
+    for i in range(n):
+        theta[i] = min(max((head[i, 0] + b_head) * max_angle, -max_angle), max_angle)
+        if refine:
+            theta[i] = polish_one(feats[i, 0], feats[i, 1], feats[i, 2], theta[i], leg, gravity, max_angle)
     return theta
-
-
-@njit(cache=True)
-def network_angles(feats, net):
-    """``network_angle`` for each row (speed, drop, foothold offset) of ``feats`` (N, 3)."""
-    out = np.empty(feats.shape[0])
-    for i in range(feats.shape[0]):
-        out[i] = network_angle(feats[i, 0], feats[i, 1], feats[i, 2], net)
-    return out

@@ -25,8 +25,8 @@ committed ones, each checked against the manifest. OUT/training/ holds each step
 OUT/training/STEP.done marks a finished step, and rerunning the same command skips finished steps and resumes
 the others (a dataset's missing shards, the training's remaining epochs, the ranker's missing rounds);
 OUT/training/config.json records the settings, and other settings are refused. Weights are written atomically,
-the folder's files last. Every size is a flag; the defaults take about 10 minutes on 2 cores (--jobs 2
---threads 2).
+the folder's files last. Every size is a flag; the defaults are sized for a few minutes on 2 cores (--jobs 2
+--threads 2), each step showing its progress.
 
 Exit status: 0 when the folder was written, 1 when a step failed (its own exit status is printed), 2 for a usage
 error (reported before any work).

@@ -8,7 +8,7 @@ import pytest
 import torch
 
 from drakeslip import SlipParams, StepLengthController, Terrain
-from drakeslip.fast_controller import aim
+from drakeslip.fast_controller import aim_rows
 from planners.checkpoints import SUBCELL_WEIGHTS
 from planners.core.model import ModelArrays, encode, first_gates, first_step_logits
 from planners.formats.suite import load_suite
@@ -47,11 +47,11 @@ def test_compiled_controller_is_the_controllers_to_the_bit():
     controller = StepLengthController.load_default()
     net = controller.arrays().astuple()
     rng = np.random.default_rng(0)
-    for _ in range(50):
-        apex = np.array([rng.uniform(-1, 5), rng.uniform(0.6, 1.5), rng.uniform(0.3, 3.5)])
-        footholds = apex[0] + rng.uniform(-0.3, 1.2, 7)
-        expected = controller.leg_angles(apex, footholds, Terrain.flat())
-        assert np.array_equal([aim(*apex, x, 0.0, net) for x in footholds], expected)
+    for n in (1, 2, 5, 17, 40):
+        apexes = np.stack([rng.uniform(-1, 5, n), rng.uniform(0.6, 1.5, n), rng.uniform(0.3, 3.5, n)], axis=1)
+        footholds = apexes[:, 0] + rng.uniform(-0.3, 1.2, n)
+        expected = controller.leg_angles(apexes, footholds, Terrain.flat())
+        assert np.array_equal(aim_rows(apexes, footholds, np.zeros(n), net), expected)
 
 
 def python_grid_search(planner, problem, spacing, robust):
@@ -68,6 +68,7 @@ def python_grid_search(planner, problem, spacing, robust):
 
 
 def same_search(a, b):
+    """The same tree, node for node (the root's angle and foothold are NaN)."""
     ta, tb = a.tree, b.tree
     return (ta.parent == tb.parent and ta.foothold[1:] == tb.foothold[1:] and ta.angle[1:] == tb.angle[1:]
             and ta.apex == tb.apex and ta.cost == tb.cost and ta.goals == tb.goals and ta.expanded == tb.expanded

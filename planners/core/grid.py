@@ -9,7 +9,7 @@ import numpy as np
 from numba import njit
 
 from drakeslip.dynamics import GRAVITY, LEG_LENGTH, height_at
-from drakeslip.fast_controller import aim
+from drakeslip.fast_controller import aim_rows
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
@@ -55,15 +55,27 @@ def grid_candidates(x, z, v, terr, p, sin_a, cos_a, spacing, pad, until):
 
 
 @njit(cache=True)
-def aim_candidate(x, z, v, x_l, terr, net, edge_margin, max_angle):
-    """The controller's leg angle to ``x_l``, NaN where the foothold is not admissible (a ditch cell, near an edge,
-    or reached only outside the friction cone)."""
+def aim_candidates(x, z, v, x_l, terr, net, edge_margin, max_angle):
+    """The controller's leg angle from apex (x, z, v) to each of ``x_l``, NaN where the foothold is not admissible
+    (a ditch cell, near an edge, or reached only outside the friction cone): one controller call for the admissible
+    ones, as ``StepSpacePlanner.aim`` makes it, so the angles are its to the bit."""
     heights, x0, cell, ditch, _ = terr
-    ground = height_at(heights, x0, cell, x_l)
-    if not (ground > ditch and clear_of_edges_at(heights, x0, cell, x_l, edge_margin)):
-        return math.nan
-    theta = aim(x, z, v, x_l, ground, net)
-    return theta if abs(theta) < max_angle else math.nan
+    n = x_l.shape[0]
+    grounds = np.empty(n)
+    keep = np.zeros(n, np.bool_)
+    for i in range(n):
+        grounds[i] = height_at(heights, x0, cell, x_l[i])
+        keep[i] = grounds[i] > ditch and clear_of_edges_at(heights, x0, cell, x_l[i], edge_margin)
+    theta = np.full(n, math.nan)
+    k = np.count_nonzero(keep)
+    if k:
+        apexes = np.empty((k, 3))
+        apexes[:, 0], apexes[:, 1], apexes[:, 2] = x, z, v
+        theta[keep] = aim_rows(apexes, x_l[keep], grounds[keep], net)
+    for i in range(n):
+        if not abs(theta[i]) < max_angle:
+            theta[i] = math.nan
+    return theta
 
 
 @njit(cache=True)
@@ -126,9 +138,7 @@ def expand_grid(x, z, v, terr, p, net, sin_a, cos_a, s, slots):
     x_l = grid_candidates(x, z, v, terr, p, sin_a, cos_a, s[SPACING], s[PAD], s[UNTIL])
     n = x_l.shape[0]
     t0 = now()
-    theta = np.empty(n)
-    for i in range(n):
-        theta[i] = aim_candidate(x, z, v, x_l[i], terr, net, s[EDGE], s[MAX_ANGLE])
+    theta = aim_candidates(x, z, v, x_l, terr, net, s[EDGE], s[MAX_ANGLE])
     t1 = now()
     ok = np.zeros(n, np.bool_)
     apexes = np.zeros((n, 3))

@@ -14,7 +14,40 @@ import math
 import numpy as np
 from numba import njit
 
-from drakeslip.fast_controller import affine, tanh
+
+
+@njit(cache=True)
+def tanh(x):
+    """tanh from one exp (a quarter of libm's tanh's cost), within 3e-16 of it."""
+    e = math.exp(-2.0 * abs(x))
+    return math.copysign((1.0 - e) / (1.0 + e), x)
+
+
+@njit(cache=True, fastmath={"contract"})
+def affine(x, w, b, out):
+    """out = x @ w + b (w stored (inputs, outputs)): each output summed in input order with fused multiply-adds,
+    the outputs side by side and four inputs a pass, so the sums vectorize without reordering."""
+    n_in, n_out = w.shape
+    out[:] = 0.0
+    k = 0
+    while k + 4 <= n_in:
+        x0, x1, x2, x3 = x[k], x[k + 1], x[k + 2], x[k + 3]
+        if x0 != 0.0 or x1 != 0.0 or x2 != 0.0 or x3 != 0.0:
+            for j in range(n_out):
+                acc = out[j]
+                acc += x0 * w[k, j]
+                acc += x1 * w[k + 1, j]
+                acc += x2 * w[k + 2, j]
+                acc += x3 * w[k + 3, j]
+                out[j] = acc
+        k += 4
+    while k < n_in:
+        xk = x[k]
+        for j in range(n_out):
+            out[j] += xk * w[k, j]
+        k += 1
+    for j in range(n_out):
+        out[j] += b[j]
 
 
 class ModelArrays:

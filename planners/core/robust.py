@@ -8,7 +8,7 @@ import numpy as np
 from numba import njit
 
 from drakeslip.dynamics import height_at
-from drakeslip.fast_controller import aim
+from drakeslip.fast_controller import aim_rows
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
 from planners.core.tree import heap_pop
@@ -48,10 +48,10 @@ def admit(tree, node, rob, flight_of, flights, terr, net, slots):
     errors, angle_errors = rob[APEX_ERRORS], rob[ANGLE_ERRORS]
     ground = height_at(heights, x0, cell, foothold)
     t0 = now()
+    aims = aim_rows(here + errors, np.full(n, foothold), np.full(n, ground), net)
     angles = np.empty(n)
     for i in range(n):
-        told = here[i] + errors[i]
-        angles[i] = min(max(aim(told[0], told[1], told[2], foothold, ground, net) + angle_errors[i], -1.5), 1.5)
+        angles[i] = min(max(aims[i] + angle_errors[i], -1.5), 1.5)
     t1 = now()
     fan = rob[FAN] if depth == rob[DEPTH] else NO_FAN
     passed, ends, hops = fly_particles(here, angles, rob[WORLD], rob[SHIFT], rob[W_PARAMS], rob[W_HEIGHTS],

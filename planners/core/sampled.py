@@ -15,7 +15,7 @@ from drakeslip.fast_step import N_OUT, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, MODEL, N_SLOTS, STEP_MAP, now
 from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPACING, TOLERANCE, UNTIL,
-                                WINDOW_END, aim_candidate, children_of, fly, grid_candidates)
+                                WINDOW_END, aim_candidates, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted
 from planners.core.tree import add_children, heap_push, new_tree
@@ -198,8 +198,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
                     chunk = order[pos[slot]:pos[slot] + 4 * width]
                     pos[slot] += chunk.shape[0]
                     t0 = now()
-                    for i in chunk:
-                        theta[i] = aim_candidate(x, z, v, x_l[i], terr, net, s[EDGE], s[MAX_ANGLE])
+                    theta[chunk] = aim_candidates(x, z, v, x_l[chunk], terr, net, s[EDGE], s[MAX_ANGLE])
                     slots[CONTROLLER] += now() - t0
                     for i in chunk:
                         if theta[i] == theta[i]:
