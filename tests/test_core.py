@@ -121,3 +121,11 @@ def test_a_node_whose_candidates_all_lie_in_ditches_has_no_children():
     numpy_search = planner._search(problem, planner.attempts[0])
     planner.core_model = model
     assert len(core.tree) == 1 and core.ode_calls == 0 and same_search(numpy_search, core)
+
+
+def test_planning_speed_script_prints_the_ratios(run_script):
+    code, out, _ = run_script("planning_speed", "--suites", "suites/ditch.json", "--planners", "step,lstm-guided",
+                              "--pairs", "step:lstm-guided", "--cases", "2", "--repeats", "1")
+    assert code == 0 and "mean t_plan step / lstm-guided = " in out and "controller ms" in out
+    code, _, err = run_script("planning_speed", "--pairs", "step:angle")
+    assert code == 2 and "--pairs names labels not in --planners: angle" in err and len(err.strip().splitlines()) == 1
