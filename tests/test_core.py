@@ -107,3 +107,25 @@ def test_a_core_plan_says_where_its_time_went():
         assert all(v >= 0 for v in parts.values()) and parts["step_map_s"] > 0 and parts["controller_s"] > 0
         assert (parts["model_s"] > 0) == (label == "lstm-guided")
         assert sum(parts.values()) == pytest.approx(plan.time_s, rel=1e-9, abs=1e-12)
+
+
+def test_a_node_whose_candidates_all_lie_in_ditches_has_no_children():
+    """Over a ditch wider than a hop, every candidate's bin is masked: no draw, no child, in both searches."""
+    heights = np.zeros(200)
+    heights[35:80] = -1.0   # a ditch from x = 0.5 to 5 m
+    terrain = Terrain(heights, 0.1, -3.0)
+    planner = make("lstm-guided")
+    problem = planner.problem((2.0, 1.5, 1.0), terrain, 10.0, PARAMS, time.perf_counter())
+    core = planner._search(problem, planner.attempts[0])
+    model, planner.core_model = planner.core_model, None
+    numpy_search = planner._search(problem, planner.attempts[0])
+    planner.core_model = model
+    assert len(core.tree) == 1 and core.ode_calls == 0 and same_search(numpy_search, core)
+
+
+def test_planning_speed_script_prints_the_ratios(run_script):
+    code, out, _ = run_script("planning_speed", "--suites", "suites/ditch.json", "--planners", "step,lstm-guided",
+                              "--pairs", "step:lstm-guided", "--cases", "2", "--repeats", "1")
+    assert code == 0 and "mean t_plan step / lstm-guided = " in out and "controller ms" in out
+    code, _, err = run_script("planning_speed", "--pairs", "step:angle")
+    assert code == 2 and "--pairs names labels not in --planners: angle" in err and len(err.strip().splitlines()) == 1

@@ -169,7 +169,8 @@ def first_step_logits(apex_features, gates_in, encoding, net, bins):
 
 @njit(cache=True)
 def masked_softmax(logits, temperature, mask):
-    """softmax(logits / temperature) with the bins where ``mask`` is True at probability 0 (those at -inf too)."""
+    """softmax(logits / temperature) with the bins where ``mask`` is True at probability 0 (those at -inf too);
+    NaN everywhere when every bin is (numpy's 0/0: no candidate can be drawn)."""
     p = np.empty(logits.shape[0])
     top = -math.inf
     for j in range(p.shape[0]):
@@ -179,6 +180,9 @@ def masked_softmax(logits, temperature, mask):
     for j in range(p.shape[0]):
         p[j] = math.exp(p[j] - top) if p[j] > -math.inf else 0.0
         total += p[j]
+    if total == 0.0:
+        p[:] = math.nan
+        return p
     for j in range(p.shape[0]):
         p[j] /= total
     return p
