@@ -18,7 +18,8 @@ over the length factor) and polishes with the hopper's own L0 and g. For the tra
 1.0 and the angles are the trained controller's to the bit.
 
 Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is needed
-only to read and write the weights file (training is controller_training.py).
+only to read and write the weights file (training is controller_training.py). The planning core aims its candidates
+with the same computation compiled (``fast_controller.aim_rows``, from ``arrays()``), to the bit.
 
 ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
 ``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
@@ -88,6 +89,7 @@ class StepLengthController:
         self._layers = [(arrays[f"hidden.{k}.weight"].T.copy(), arrays[f"hidden.{k}.bias"].copy())
                         for k in range(config.layers)]
         self._head = (arrays["head.weight"].T.copy(), arrays["head.bias"].copy())
+        self._arrays = None           # the network for compiled code, made on first use
 
     def for_params(self, params: SlipParams) -> "StepLengthController":
         """The controller for the hopper ``params``: the same network, its inputs taken in the trained hopper's units
@@ -104,6 +106,7 @@ class StepLengthController:
             speed = math.sqrt((params.gravity * params.leg_length) / (trained.gravity * trained.leg_length))
             view.feature_scale = np.array([speed, length, length])
             view.views = self.views
+            view._arrays = None
             self.views[key] = view
         return self.views[key]
 
@@ -142,6 +145,21 @@ class StepLengthController:
         if not math.isfinite(foothold_x):
             raise ValueError(f"foothold_x must be finite, got {foothold_x!r}")
         return float(self.leg_angles(apex, [foothold_x], terrain, refine)[0])
+
+    def arrays(self):
+        """The network as ``drakeslip.fast_controller.ControllerArrays`` for compiled code (built once per view)."""
+        if self._arrays is None:
+            from drakeslip.fast_controller import ControllerArrays
+
+            (w_in, b_in), hidden = self._layers[0], self._layers[1:]
+            size = self.config.hidden
+            self._arrays = ControllerArrays(
+                w_in, b_in, np.array([w for w, _ in hidden]).reshape(len(hidden), size, size),
+                np.array([b for _, b in hidden]).reshape(len(hidden), size), self._head[0][:, 0].copy(),
+                float(self._head[1][0]), self.feature_mean, self.feature_std,
+                np.ones(N_FEATURES) if self.feature_scale is None else self.feature_scale,
+                float(self.config.max_angle), float(self.leg_length), float(self.gravity), bool(self.refine))
+        return self._arrays
 
     # ---- persistence ---------------------------------------------------------------------------------
     def weights(self) -> dict:

@@ -21,20 +21,24 @@ def polish_angles(speed, drop, target, theta, leg_length, gravity, max_angle):
     top is reproduced, not tripped."""
     out = np.empty(theta.size)
     for i in range(theta.size):
-        v, d, target_i = speed[i], drop[i], target[i]
-        side = -1.0 if target_i < 0 else 1.0
-        boundary = side * math.acos(min(max(d / leg_length, -1.0), 1.0))  # foot level with the surface at apex
-        th = theta[i]
-        if not d - leg_length * math.cos(th) > 1e-12:
-            th = boundary + side * 1e-4
-        for _ in range(NEWTON_STEPS):
-            fall = d - leg_length * math.cos(th)
-            ok = fall > 1e-12
-            t = math.sqrt(2 * (fall if ok else 1.0) / gravity)
-            slope = leg_length * math.cos(th) + v * leg_length * math.sin(th) / (gravity * t)
-            ok = ok and slope > 1e-3
-            step = (leg_length * math.sin(th) + v * t - target_i) / slope if ok else 0.0
-            new = min(max(th - min(max(step, -0.1), 0.1), -max_angle), max_angle)
-            th = new if d - leg_length * math.cos(new) > 1e-12 else 0.5 * (th + boundary)
-        out[i] = th
+        out[i] = polish_one(speed[i], drop[i], target[i], theta[i], leg_length, gravity, max_angle)
     return out
+
+
+@njit(cache=True)
+def polish_one(v, d, target_i, th, leg_length, gravity, max_angle):
+    """``polish_angles`` for one row: the polished angle from the network's ``th``."""
+    side = -1.0 if target_i < 0 else 1.0
+    boundary = side * math.acos(min(max(d / leg_length, -1.0), 1.0))  # foot level with the surface at apex
+    if not d - leg_length * math.cos(th) > 1e-12:
+        th = boundary + side * 1e-4
+    for _ in range(NEWTON_STEPS):
+        fall = d - leg_length * math.cos(th)
+        ok = fall > 1e-12
+        t = math.sqrt(2 * (fall if ok else 1.0) / gravity)
+        slope = leg_length * math.cos(th) + v * leg_length * math.sin(th) / (gravity * t)
+        ok = ok and slope > 1e-3
+        step = (leg_length * math.sin(th) + v * t - target_i) / slope if ok else 0.0
+        new = min(max(th - min(max(step, -0.1), 0.1), -max_angle), max_angle)
+        th = new if d - leg_length * math.cos(new) > 1e-12 else 0.5 * (th + boundary)
+    return th

@@ -19,6 +19,10 @@ a spread-out sample of the cases:
         --options '{"step": {"step_map": "drake"}, "lstm-guided": {"step_map": "drake"}}' --baseline step \
         --out out/drake.json
 
+The planners plan for the suite's hopper (the paper's when it records none), and the results record it. --hopper (a
+hopper file or folder, examples/train_hopper.py) must be that hopper, whose folder's weights the planners then
+read; a suite drawn for another hopper is refused in one line (examples/make_suites.py --hopper draws one for it).
+
 Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite
 value outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs. Ctrl-C
 ends it with one line saying how many results were saved, and by SIGINT (a shell shows status 130).
@@ -47,6 +51,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
     ap.add_argument("--options", default="{}",
                     help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
+    cli.add_hopper(ap, default="the suite's")
     ap.add_argument("--controller", type=cli.input_file, default=None,
                     help="controller weights (default: the committed drakeslip/weights/controller.pt)")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
@@ -96,12 +101,15 @@ def main(argv=None) -> int:
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json
     from planners.formats.suite import load_suite
+    from planners.formats.suite_draw import hopper_for_suite
+    from planners.registry import hopper_specs
     from verification.evaluation import evaluate, worker_setup
     from verification.report import ratios, table
 
     specs = {label: options.get(label) for label in labels}
     try:
         suite = load_suite(args.suite)
+        specs = hopper_specs(specs, hopper_for_suite(suite, args.hopper))
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))

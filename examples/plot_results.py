@@ -4,7 +4,8 @@ r"""Figures of evaluation results (results JSONs of examples/evaluate.py or exam
 
 writes OUT/success.png (success rate per planner and run with 95 % Wilson intervals, the paper's Table II/III
 values marked for the ditch and step suites) and OUT/cost.png (ODE calls and planning time per planning call,
-log scales). When the inputs were run with different noise scales (evaluate.py --noise realistic*K), it also
+log scales), and, when the planners account for their time (the compiled core's ``Plan.timing``), OUT/timing.png:
+the mean time per planning call in the step map, the controller, the footstep model and the search. When the inputs were run with different noise scales (evaluate.py --noise realistic*K), it also
 writes OUT/noise.png: success against K, one line per planner with its 95 % band:
 
     for k in 0 0.25 0.5 1 2; do python3 examples/evaluate.py --suite suites/ditch.json --planners step \
@@ -53,10 +54,13 @@ def main(argv=None) -> int:
         ap.error(str(error))
 
     from verification.paper import TABLES
-    from verification.plots import cost_figure, noise_figure, noise_runs, success_figure
+    from verification.plots import cost_figure, noise_figure, noise_runs, success_figure, timing_figure
 
     written = [success_figure(runs, args.out / "success.png", None if args.no_paper else TABLES),
                cost_figure(runs, args.out / "cost.png")]
+    timing = timing_figure(runs, args.out / "timing.png")  # None when no planner accounts for its time
+    if timing is not None:
+        written.append(timing)
     if any(len({k for k, _, _ in rows}) > 1 for rows in noise_runs(runs).values()):
         written.append(noise_figure(runs, args.out / "noise.png"))
     for path in written:

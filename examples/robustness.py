@@ -10,8 +10,10 @@ plan's footholds through the controller, without replanning, for the plan's firs
 the fast backend; --drake K reruns the first K on Drake. The plan's own margins on Drake (spring travel left,
 friction to spare, distance of its footholds from edges) are printed first: they are what noise eats into.
 
---out writes the result as JSON (the rate, the failures, every draw's errors and outcome, and where the result
-came from); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome (PNG).
+--out writes the result as JSON (the rate, the failures, every draw's errors and outcome, where the result came
+from, and the plan's hopper); --hopper checks the plan against a hopper file or folder (a plan made for another
+hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome
+(PNG).
 
 Exit status: 0 when the draws ran, 2 for a usage or input error.
 """
@@ -28,6 +30,7 @@ from drakeslip.terrain import check_window
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
+    cli.add_hopper(ap, default="the plan file's")
     ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
     ap.add_argument("--map-filter", type=cli.positive_int, default=1,
@@ -55,6 +58,7 @@ def main(argv=None) -> int:
     except ValueError as error:
         ap.error(str(error))
 
+    from drakeslip.hopper_file import check_same_hopper, hopper_for
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
     from drakeslip.jobs.runner import write_json
@@ -63,6 +67,8 @@ def main(argv=None) -> int:
 
     try:
         record = load_plan(args.plan)
+        if args.hopper is not None:
+            check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
         if args.hops is not None and args.hops > len(record.footholds):
             raise ValueError(f"--hops {args.hops} is more than the plan's {len(record.footholds)} hops")
     except (OSError, ValueError) as error:
@@ -82,7 +88,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         confirmation = confirm_on_drake(result, args.drake)
         print(confirmation.format() + f" ({time.perf_counter() - t0:.1f} s)")
-    document = {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()}
+    document = {**result.to_dict(), "plan": str(args.plan),
+                "hopper": (record.hopper or hopper_for(record.params)).to_record(), "provenance": provenance()}
     if args.backend == "multibody":   # the robot each draw ran: built around the draw's hopper
         from drakeslip.multibody.robot import RobotParams
         from planners.closed_loop import robot_record

@@ -39,12 +39,39 @@ class FootstepSequence:
 
 
 @dataclass
+class Timing:
+    """Where a planning call's time went [s]: the step map, the controller, the footstep model, and the search
+    around them (the frontier, the tree, the candidates, the Python around the compiled core: the call's
+    wall-clock ``total`` less the three)."""
+
+    step_map: float = 0.0
+    controller: float = 0.0
+    model: float = 0.0
+    total: float = 0.0
+    accounted: bool = False  # a compiled core ran and added its time
+
+    def add(self, slots) -> None:
+        """Add a compiled core's time slots (step map, controller, model; planners/core/clock.py)."""
+        self.accounted = True
+        self.step_map += float(slots[0])
+        self.controller += float(slots[1])
+        self.model += float(slots[2])
+
+    def record(self) -> dict:
+        """The breakdown as a results file holds it."""
+        search = max(self.total - self.step_map - self.controller - self.model, 0.0)
+        return {"step_map_s": self.step_map, "controller_s": self.controller, "model_s": self.model,
+                "search_s": search}
+
+
+@dataclass
 class Plan:
     """The result of ``planner.plan``: ``success`` with the best sequence in ``footholds``/``leg_angles``/
     ``apexes`` (and up to d ``alternatives`` for the search planners), or ``success=False`` and a
     ``message`` saying why no plan was found. ``target_x`` is what the plan aimed to pass: the goal, or the
     edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations.
-    ``time_limited``: the wall-clock safety limit stopped the planner (a result that depends on the machine)."""
+    ``time_limited``: the wall-clock safety limit stopped the planner (a result that depends on the machine).
+    ``timing``: where ``time_s`` went (``Timing.record``), for the planners that account for it."""
 
     planner: str
     success: bool
@@ -55,6 +82,7 @@ class Plan:
     message: str = ""
     sequences: list = field(default_factory=list)
     time_limited: bool = False
+    timing: dict | None = None
 
     @property
     def best(self) -> FootstepSequence | None:
@@ -80,7 +108,8 @@ class Plan:
         """The per-planning-call record the evaluation writes."""
         return {"success": self.success, "message": self.message, "ode_calls": self.ode_calls,
                 "t_plan_s": self.time_s, "nodes_expanded": self.nodes_expanded, "target_x": self.target_x,
-                "footholds": self.footholds.tolist(), "time_limited": self.time_limited}
+                "footholds": self.footholds.tolist(), "time_limited": self.time_limited,
+                **({"timing": self.timing} if self.timing is not None else {})}
 
 
 @dataclass(frozen=True)
@@ -114,6 +143,7 @@ class Problem:
     window_end: float   # footholds must lie before this x: the horizon, or where the terrain's knowledge ends
     target_x: float     # a sequence is complete when a foothold passes this x
     deadline: float     # time.perf_counter() value at which the planner must stop
+    timing: Timing = field(default_factory=Timing)  # where the call's time goes, filled in as it runs
 
 
 class Planner(ABC):
@@ -142,6 +172,9 @@ class Planner(ABC):
                         sequences=[FootstepSequence(np.zeros(0), np.zeros(0), np.zeros((0, 3)))])
         plan = self._plan(problem)
         plan.time_s = time.perf_counter() - t0
+        if problem.timing.accounted:
+            problem.timing.total = plan.time_s
+            plan.timing = problem.timing.record()
         return plan
 
     def problem(self, apex, terrain, goal_x, params, t0: float) -> Problem:

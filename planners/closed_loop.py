@@ -31,7 +31,8 @@ class ClosedLoopConfig:
     """``executed_per_plan`` footholds of each plan are executed before replanning; ``backend="drake"`` executes on
     the Drake hybrid simulator (the protocol), ``"fast"`` on the fast step map (quick diagnosis: is a failure the
     planner's or the model mismatch's?); ``refine`` switches the controller's Newton polish (False: the MLP alone,
-    as in the paper, an ablation); ``noise`` the noise profile and ``seed`` the seed of its draws; ``map_filter``
+    as in the paper, an ablation); ``noise`` the noise profile (its sizes the paper's hopper's, drawn in the case's
+    hopper's units: ``NoiseProfile.for_hopper``) and ``seed`` the seed of its draws; ``map_filter``
     the cells of the median filter the robot runs on its sensed height map before the planner and the controller
     use it (``Terrain.denoised`` with the profile's height error; 1: the map as sensed). Without the filter a
     1 cm error per 10 cm cell makes one cell edge in six look like a step of more than 2 cm, which the planners
@@ -87,7 +88,7 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
     if config.backend == "multibody":
         return _run_on_robot(planner, case, goal_x, params, config)
     apex, terrain = ApexState(*map(float, case.apex)), case.terrain
-    noise, rng = config.noise, np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
+    noise, rng = config.noise.for_hopper(params), np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
     # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
     aim_x = goal_x + GOAL_SIGMAS * noise.apex[0]
     executed = params if noise.silent else noise.executed_params(params, rng)

@@ -24,7 +24,7 @@ def test_bench_one_plan(benchmark, controller, label):
     plan = benchmark.pedantic(planner.plan, args=(APEX, TERRAIN, 10.0, PARAMS),
                               rounds=5 if label != "heuristic" else 50, warmup_rounds=1)
     benchmark.extra_info.update(success=plan.success, ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
-                                footholds=len(plan.footholds))
+                                footholds=len(plan.footholds), timing=plan.timing)
 
 
 def test_bench_one_training_step(benchmark):

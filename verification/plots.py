@@ -143,6 +143,33 @@ def cost_figure(runs: list, path):
     return save(fig, path)
 
 
+TIMING_PARTS = (("step_map_s", "step map"), ("controller_s", "controller"), ("model_s", "footstep model"),
+                ("search_s", "search"))
+
+
+def timing_figure(runs: list, path):
+    """Where planning time goes: per planner and run, the mean time per planning call [ms] in the step map, the
+    controller, the footstep model and the search around them (``Plan.timing``), stacked; planners whose calls
+    carry no breakdown are left out. None when no run has one."""
+    bars = [(f"{label}\n{name}", r["planners"][label]["timing_mean_s"]) for r, name in zip(runs, _names(runs))
+            for label in _labels([r]) if r["planners"][label].get("timing_mean_s")]
+    if not bars:
+        return None
+    fig, axes = figure((min(max(6.0, 1.0 * len(bars) + 3), 12.0), 4.5))
+    ax = axes[0, 0]
+    bottom = np.zeros(len(bars))
+    for k, (part, name) in enumerate(TIMING_PARTS):
+        values = np.array([1e3 * t.get(part, 0.0) for _, t in bars])
+        ax.bar(range(len(bars)), values, bottom=bottom, color=f"C{k}", label=name)
+        bottom += values
+    ax.set_xticks(range(len(bars)), [b for b, _ in bars], fontsize=7)
+    ax.set_ylabel("mean time per planning call [ms]")
+    ax.grid(axis="y", alpha=0.3)
+    fig.legend(fontsize=8, loc="outside lower center", ncols=4, frameon=False)
+    ax.set_title(wrapped("Where planning time goes, per planning call (the compiled core's accounting)"), fontsize=10)
+    return save(fig, path)
+
+
 def noise_runs(runs: list) -> dict:
     """{(suite, planner label): sorted [(noise scale K, successes, cases)]} of the runs whose noise is
     realistic*K (runs with other noise are left out)."""

@@ -21,7 +21,9 @@ def wilson_interval(successes: int, n: int, z: float = Z95) -> tuple[float, floa
 def summarize(cases: list) -> dict:
     """The per-planner JSON block: success rate (fraction) and its 95 % Wilson interval, ODE calls, nodes expanded
     and planning time per planning call, the footholds per plan found, and how many calls the wall-clock safety
-    limit stopped (their work depends on the machine)."""
+    limit stopped (their work depends on the machine); ``timing_mean_s``: the mean seconds per planning call in the
+    step map, the controller, the footstep model and the search around them, over the calls that account for
+    their time (``Plan.timing``; empty when none does)."""
     calls = [p for c in cases for p in c["plans"]]
     times = [p["t_plan_s"] for p in calls]
     lengths = [len(p["footholds"]) for p in calls if p["success"]]
@@ -35,7 +37,14 @@ def summarize(cases: list) -> dict:
             "nodes_expanded_mean": statistics.fmean(p["nodes_expanded"] for p in calls) if calls else 0.0,
             "footholds_mean": statistics.fmean(lengths) if lengths else 0.0,
             "time_limited_calls": sum(bool(p.get("time_limited")) for p in calls),
+            "timing_mean_s": timing_means(calls),
             "cases": cases}
+
+
+def timing_means(calls: list) -> dict:
+    """Mean seconds per planning call in each part of ``Plan.timing``, over the calls that carry one."""
+    timed = [p["timing"] for p in calls if p.get("timing")]
+    return {part: statistics.fmean(t[part] for t in timed) for part in timed[0]} if timed else {}
 
 
 def table(results: dict) -> str:

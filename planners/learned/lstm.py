@@ -35,6 +35,7 @@ class FootstepDistribution:
     heuristic)."""
 
     def __init__(self, model: FootstepModel, mask_ditches: bool = True):
+        self.model_weights = model   # the torch model, for the compiled core's copy (planners/core/model.py)
         self.model = NumpyFootstepModel(model)
         self.mask_ditches = mask_ditches
 

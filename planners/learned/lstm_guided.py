@@ -2,20 +2,26 @@
 distribution over the next foothold, given the path from the root to the node being expanded."""
 from __future__ import annotations
 
+import time
+
 import numpy as np
 
-from drakeslip import ApexState
+from drakeslip import ApexState, Terrain
+from drakeslip.terrain import DITCH_HEIGHT
 
 from planners.checkpoints import SUBCELL_WEIGHTS
+from planners.core.model import ModelArrays
 from planners.learned.inference import softmax
-from planners.learned.inputs import encode_window
+from planners.learned.inputs import SAME_CELL, encode_window, model_cell
 from planners.learned.lstm import FootstepDistribution, load_model
+from planners.search.robust import Robustness
 from planners.search.step_space import StepSpacePlanner, attempt_name
 from planners.search.tree import Children, CostWeights, best_first, run_attempts
 
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
 MAX_NODES = 500
+_COMPILED: list = []  # holds True once this process has compiled (or loaded) the sampled core
 
 
 class PathConditionedSampler:
@@ -114,6 +120,16 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             raise ValueError(f"floor must be a probability in [0, 1), got {floor!r}")
         self.floor = float(floor)
         self.grid_fallback = bool(grid_fallback)
+        self.core_model = ModelArrays(self.net.model_weights) if self.conditioning == "apex" else None
+        if self.core_model is not None and self.step_map == "fast":
+            warm_up_sampled(self)
+
+    def core_window(self, problem):
+        """The compiled core's window settings for ``problem``, None where the search runs in numpy (a terrain
+        whose cells are not the model's, the Drake step map, or the path-conditioned model)."""
+        if self.core_model is None or self.step_map != "fast":
+            return None
+        return core_window_settings(problem, self.net, self.temperature, self.floor)
 
     def _plan(self, problem):
         attempts = []
@@ -128,6 +144,14 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         return run_attempts(self, problem, attempts)
 
     def _search(self, problem, branching, robust=None):
+        window = self.core_window(problem)
+        if window is not None:
+            from planners.core.search import sampled_search  # compiled on first use: imports stay light
+
+            settings = self.core_settings(problem, self.spacings(problem.units)[0], problem.window_end)
+            return sampled_search(problem, settings, window, self.core_model, np.random.default_rng(self.seed),
+                                  1 if self.lazy else branching, robust, self.controller.for_params(problem.params),
+                                  self.cost_weights, self.n_sequences, self.search_budget(robust), problem.timing)
         sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
         terrain, params = problem.terrain, problem.params
         rng = np.random.default_rng(self.seed)
@@ -167,6 +191,29 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
         return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
+
+
+def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
+    """Compile (or load from numba's cache) the planning core's sampled search once per process, with ``planner``'s
+    model, so its JIT start-up is not charged to a plan's time budget."""
+    if not _COMPILED:
+        _COMPILED.append(True)
+        problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
+        for robust in (None, Robustness()):
+            planner._search(problem, 1, robust)
+
+
+def core_window_settings(problem, net: FootstepDistribution, temperature: float, floor: float):
+    """The compiled core's window settings (``planners.core.sampled``'s N_CELLS..FLOOR) for ``problem``, or None
+    where the core does not encode the model's window: a terrain whose cells are not the model's."""
+    units, terrain = problem.units, problem.terrain
+    ahead, behind = units.window
+    cell = model_cell(units)
+    if abs(terrain.cell - cell) > SAME_CELL * cell:
+        return None
+    return np.array([max(1, int(round((ahead + behind) / terrain.cell))), int(round(behind / terrain.cell)),
+                     int(round(behind / cell)), units.length, units.speed, min(DITCH_HEIGHT * units.length, 0.0),
+                     net.subcells, net.mask_ditches, temperature, floor], dtype=np.float64)
 
 
 def weighted_order(p: np.ndarray, rng) -> np.ndarray:

@@ -2,22 +2,23 @@
 through the low-level controller (paper, section V-C), so every planned step is one the controller hits."""
 from __future__ import annotations
 
+import functools
 import math
 import time
 from dataclasses import replace
 
 import numpy as np
 
-from drakeslip import StepLengthController, step, step_batch
+from drakeslip import StepLengthController, Terrain, step, step_batch
 from drakeslip.stepmap import BACKENDS
 
 from drakeslip.units import HopperUnits, units_of
 
 from planners.base import Plan, Planner, Problem
 from planners.search.robust import Robustness
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Children,
-                                  CostWeights, SearchResult, best_first, clear_of_edges, isolation, run_attempts,
-                                  warm_up)
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
+                                  Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
+                                  run_attempts, warm_up)
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
 GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
@@ -82,6 +83,8 @@ class StepSpacePlanner(Planner):
         self.min_speed = None if min_speed is None else float(min_speed)
         self.edge_margin = None if edge_margin is None else float(edge_margin)
         warm_up()
+        if step_map == "fast":
+            warm_up_core()
 
     def spacings(self, units: HopperUnits) -> tuple:
         """The grid spacings [m] a search tries in turn for a hopper of ``units``: ``spacing``, then each
@@ -148,6 +151,12 @@ class StepSpacePlanner(Planner):
         return spacings if robust is None or robust.fallback_grids else spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
+        if self.step_map == "fast":
+            from planners.core.search import grid_search  # compiled on first use: --help and imports stay light
+
+            return grid_search(problem, self.core_settings(problem, spacing), robust,
+                               self.controller.for_params(problem.params), self.cost_weights, self.n_sequences,
+                               self.search_budget(robust), problem.timing)
         terrain, params = problem.terrain, problem.params
 
         def expand(tree, node) -> Children:
@@ -159,6 +168,14 @@ class StepSpacePlanner(Planner):
 
         return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
                           self.admission(problem, robust))
+
+    def core_settings(self, problem: Problem, spacing: float, until: float = math.inf) -> np.ndarray:
+        """The compiled core's grid settings (``planners.core.grid``'s SPACING..AT_FAILURE) for ``problem``."""
+        units = problem.units
+        return np.array([spacing, REACH_PAD * units.length, until, units.length_or(self.edge_margin, EDGE_MARGIN),
+                         math.atan(problem.params.friction), units.length_or(self.tolerance, TOLERANCE),
+                         units.speed_or(self.min_speed, MIN_SPEED), problem.window_end,
+                         ISOLATION_AT_FAILURE * units.length])
 
     def search_budget(self, robust: Robustness | None):
         """The planner's budget, its nodes capped at ``robust.max_nodes`` for a robust search."""
@@ -229,12 +246,23 @@ class StepSpacePlanner(Planner):
                                             for r, s in self.attempt_settings(problem.units)])
 
 
+@functools.cache
+def warm_up_core() -> None:
+    """Compile (or load from numba's cache) the planning core's grid search once per process, so its JIT start-up is
+    not charged to a plan's time budget."""
+    from planners.core.search import grid_search
+    from planners.base import Budget
+
+    planner = StepSpacePlanner(max_nodes=1, step_map="drake")  # a planner that does not warm up the core itself
+    problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
+    for robust in (None, Robustness()):
+        grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
+                    planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
+
+
 def attempt_name(robustness: Robustness | None) -> str:
     """How a plan's message names the robustness its search asked for."""
     return "" if robustness is None else f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}) "
-
-
-REACH_ANGLES = np.linspace(-1.0, 1.0, 41)  # fractions of the friction-cone limit at which the reach is evaluated
 
 
 def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:

@@ -19,6 +19,8 @@ from planners.base import Budget, FootstepSequence, Plan, Planner, Problem
 # (``Problem.units``: lengths times the length factor, speeds times the speed factor), so it does the same for every
 # hopper. FRICTION_MARGIN is a fraction of the friction cone, the same for all.
 FRICTION_MARGIN = 0.99  # sample strictly inside the friction cone |theta| < atan(mu)
+# Fractions of the friction-cone limit at which a flight's reach is evaluated (step_space.touchdown_range)
+REACH_ANGLES = np.linspace(-1.0, 1.0, 41)
 # A child whose next apex is slower than this [m/s] is dropped: near-zero apex speeds are one small leg-angle
 # error away from a stall, and the speed term of the cost would otherwise favour them.
 MIN_SPEED = 0.3

@@ -1,0 +1,100 @@
+"""The compiled search's tree and frontier as arrays that grow by doubling.
+
+A tree is the tuple (parent, angle, foothold, apex (N, 3), cost, depth), node 0 the root, as
+``planners.search.tree.SearchTree`` holds them in lists. The frontier is a binary heap of (cost, node) pairs in two
+arrays, ordered as Python's ``heapq`` orders the tuples (cost, then node), so the two pop the same sequence."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True)
+def new_tree(root_x, root_z, root_xdot, capacity):
+    """A tree holding the root alone (no parent, angle or foothold; cost inf, depth 0)."""
+    tree = (np.empty(capacity, np.int64), np.empty(capacity), np.empty(capacity), np.empty((capacity, 3)),
+            np.empty(capacity), np.empty(capacity, np.int64))
+    parent, angle, foothold, apex, cost, depth = tree
+    parent[0], angle[0], foothold[0], cost[0], depth[0] = -1, math.nan, math.nan, math.inf, 0
+    apex[0, 0], apex[0, 1], apex[0, 2] = root_x, root_z, root_xdot
+    return tree
+
+
+@njit(cache=True)
+def reserve(tree, size, extra):
+    """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed)."""
+    parent, angle, foothold, apex, cost, depth = tree
+    if size + extra <= parent.shape[0]:
+        return tree
+    capacity = max(2 * parent.shape[0], size + extra)
+    grown = new_tree(0.0, 0.0, 0.0, capacity)
+    grown[0][:size] = parent[:size]
+    grown[1][:size] = angle[:size]
+    grown[2][:size] = foothold[:size]
+    grown[3][:size] = apex[:size]
+    grown[4][:size] = cost[:size]
+    grown[5][:size] = depth[:size]
+    return grown
+
+
+@njit(cache=True)
+def _before(keys, ids, a, b):
+    return keys[a] < keys[b] or (keys[a] == keys[b] and ids[a] < ids[b])
+
+
+@njit(cache=True)
+def heap_push(keys, ids, size, key, node):
+    """Push (key, node); returns the heap's arrays (grown when full) and its new size."""
+    if size == keys.shape[0]:
+        keys2, ids2 = np.empty(2 * size + 16), np.empty(2 * size + 16, np.int64)
+        keys2[:size], ids2[:size] = keys[:size], ids[:size]
+        keys, ids = keys2, ids2
+    i = size
+    keys[i], ids[i] = key, node
+    while i > 0:
+        up = (i - 1) // 2
+        if not _before(keys, ids, i, up):
+            break
+        keys[i], keys[up] = keys[up], keys[i]
+        ids[i], ids[up] = ids[up], ids[i]
+        i = up
+    return keys, ids, size + 1
+
+
+@njit(cache=True)
+def heap_pop(keys, ids, size):
+    """Remove the least (key, node); returns its node and the heap's new size."""
+    node = ids[0]
+    size -= 1
+    keys[0], ids[0] = keys[size], ids[size]
+    i = 0
+    while True:
+        left, least = 2 * i + 1, i
+        if left < size and _before(keys, ids, left, least):
+            least = left
+        if left + 1 < size and _before(keys, ids, left + 1, least):
+            least = left + 1
+        if least == i:
+            return node, size
+        keys[i], keys[least] = keys[least], keys[i]
+        ids[i], ids[least] = ids[least], ids[i]
+        i = least
+
+
+@njit(cache=True)
+def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weights, keys, ids, heap):
+    """Add a node's children to the tree, each with its cost, and push them on the frontier; returns the tree,
+    its size and the frontier."""
+    k = angles.shape[0]
+    tree = reserve(tree, size, k)
+    parent, angle, foothold, apex, cost, depth = tree
+    progress, speed, spread = weights
+    for j in range(k):
+        i = size + j
+        c = progress * abs(footholds[j] - target_x) + speed * abs(apexes[j, 2]) + spread * d[j]
+        parent[i], angle[i], foothold[i], cost[i], depth[i] = node, angles[j], footholds[j], c, depth[node] + 1
+        apex[i] = apexes[j]
+        keys, ids, heap = heap_push(keys, ids, heap, c, i)
+    return tree, size + k, keys, ids, heap

@@ -1,0 +1,109 @@
+"""The compiled planning core (planners/core) against what it compiles: the model against torch, the controller
+against StepLengthController, and its searches against the Python best-first search, node for node."""
+import copy
+import time
+
+import numpy as np
+import pytest
+import torch
+
+from drakeslip import SlipParams, StepLengthController, Terrain
+from drakeslip.fast_controller import aim_rows
+from planners.checkpoints import SUBCELL_WEIGHTS
+from planners.core.model import ModelArrays, encode, first_gates, first_step_logits
+from planners.formats.suite import load_suite
+from planners.learned.inputs import encode_window
+from planners.learned.lstm import FootstepDistribution, load_model
+from planners.registry import make
+from planners.search.tree import best_first
+
+SUITE = load_suite("suites/step.json")
+PARAMS = SlipParams(friction=SUITE.friction)
+CASES = SUITE.cases[::37][:4]
+
+
+@pytest.mark.parametrize("apex", [(1.234, 1.1, 2.0), (3.02, 0.8, 1.0), (5.5, 1.4, 3.0)])
+def test_compiled_model_matches_torch(apex):
+    """The first step's logits from a node's apex, window and bin under the body: within 1e-6 of torch's forward
+    pass on the same weights (float64; the shipped float32 model agrees to float32's precision)."""
+    from drakeslip import ApexState
+
+    model = load_model(SUBCELL_WEIGHTS)
+    net = FootstepDistribution(model)
+    enc = encode_window(SUITE.cases[3].terrain, ApexState(*apex))
+    terrain, apex_in, s0, _ = net.inputs(enc)
+    arrays = ModelArrays(model).astuple()
+    code = encode(terrain[0], enc.s0_bin(net.subcells), arrays)
+    logits = first_step_logits(apex_in[0], first_gates(code, arrays), code, arrays, np.empty(0, np.int64))
+    with torch.no_grad():   # copies: the loaded model is shared by every planner in the process
+        double, _ = copy.deepcopy(model).double()(torch.tensor(terrain), torch.tensor(apex_in), torch.tensor(s0)[:, None])
+        single, _ = model(torch.tensor(terrain).float(), torch.tensor(apex_in).float(),
+                                  torch.tensor(s0).float()[:, None])
+    assert np.abs(logits - double[0, 0].numpy()).max() < 1e-6
+    assert np.abs(logits - single[0, 0].numpy()).max() < 1e-3 * max(1.0, np.abs(logits).max())
+
+
+def test_compiled_controller_is_the_controllers_to_the_bit():
+    controller = StepLengthController.load_default()
+    net = controller.arrays().astuple()
+    rng = np.random.default_rng(0)
+    for n in (1, 2, 5, 17, 40):
+        apexes = np.stack([rng.uniform(-1, 5, n), rng.uniform(0.6, 1.5, n), rng.uniform(0.3, 3.5, n)], axis=1)
+        footholds = apexes[:, 0] + rng.uniform(-0.3, 1.2, n)
+        expected = controller.leg_angles(apexes, footholds, Terrain.flat())
+        assert np.array_equal(aim_rows(apexes, footholds, np.zeros(n), net), expected)
+
+
+def python_grid_search(planner, problem, spacing, robust):
+    """Step-space's search in Python (``best_first`` with numpy expansions), as it runs on the Drake step map."""
+    def expand(tree, node):
+        apex = tree.apex[node]
+        x_l = planner.candidates(apex, problem.terrain, problem.params, spacing)
+        theta = planner.aim(apex, x_l, problem.terrain, problem.params)
+        ok, apexes = planner.simulate(problem, apex, x_l, theta)
+        return planner.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
+
+    return best_first(problem, expand, planner.cost_weights, planner.n_sequences, planner.search_budget(robust),
+                      planner.admission(problem, robust))
+
+
+def same_search(a, b):
+    """The same tree, node for node (the root's angle and foothold are NaN)."""
+    ta, tb = a.tree, b.tree
+    return (ta.parent == tb.parent and ta.foothold[1:] == tb.foothold[1:] and ta.angle[1:] == tb.angle[1:]
+            and ta.apex == tb.apex and ta.cost == tb.cost and ta.goals == tb.goals and ta.expanded == tb.expanded
+            and (a.ode_calls, a.nodes_expanded, a.stop) == (b.ode_calls, b.nodes_expanded, b.stop))
+
+
+@pytest.mark.parametrize("label", ["step", "step@robust"])
+def test_compiled_grid_search_makes_the_python_searchs_tree(label):
+    planner = make(label)
+    for case in CASES:
+        problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
+        robust, spacing = planner.attempt_settings(problem.units)[0]
+        assert same_search(python_grid_search(planner, problem, spacing, robust),
+                           planner._search(problem, spacing, robust)), case.id
+
+
+@pytest.mark.parametrize("label", ["lstm-guided", "lstm-guided@robust"])
+def test_compiled_sampled_search_makes_the_numpy_searchs_tree(label):
+    planner = make(label)
+    model = planner.core_model
+    for case in CASES:
+        problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
+        robust = planner.robustness_levels()[0]
+        planner.core_model = None   # the numpy search
+        numpy_search = planner._search(problem, planner.attempts[0], robust)
+        planner.core_model = model
+        assert same_search(numpy_search, planner._search(problem, planner.attempts[0], robust)), case.id
+
+
+def test_a_core_plan_says_where_its_time_went():
+    case = CASES[0]
+    for label in ("step", "lstm-guided"):
+        plan = make(label).plan(case.apex, case.terrain, SUITE.goal_x, PARAMS)
+        parts = plan.timing
+        assert set(parts) == {"step_map_s", "controller_s", "model_s", "search_s"}
+        assert all(v >= 0 for v in parts.values()) and parts["step_map_s"] > 0 and parts["controller_s"] > 0
+        assert (parts["model_s"] > 0) == (label == "lstm-guided")
+        assert sum(parts.values()) == pytest.approx(plan.time_s, rel=1e-9, abs=1e-12)
