@@ -149,7 +149,9 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
 def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
     from planners.drake_system import run_closed_loop
 
-    template = params if config.template is None else config.template.with_friction(params.friction)
+    # a template fitted to the default robot (built around the paper's hopper) is its template only
+    fitted_robot = params.with_friction(SlipParams().friction) == SlipParams() and config.robot is None
+    template = config.template.with_friction(params.friction) if config.template and fitted_robot else params
     robot = config.robot
     if robot is None:
         from drakeslip.multibody.robot import RobotParams

@@ -34,11 +34,9 @@ from drakeslip.terrain import Terrain
 ASCENT, DESCENT, STANCE = 0.0, 1.0, 2.0
 # The discrete state vector: phase; touchdowns since the command arrived; the command's stamp; apexes reached;
 # learned energy bias [J/kg]; this hop's energy target [J/kg]; hip torque and leg force sent; time the phase
-# began; foot x at touchdown; this stance's shortest leg extension; the energy target of the hop that ended;
-# the absolute leg angle at touchdown.
-(PHASE, STEP, STAMP, APEXES, BIAS, TARGET, TORQUE, FORCE, PHASE_START, TOUCHDOWN_X, MIN_LEG,
- LAST_TARGET, TD_ANGLE) = range(13)
-STATE_SIZE = 13
+# began; foot x and the absolute leg angle at touchdown.
+(PHASE, STEP, STAMP, APEXES, BIAS, TARGET, TORQUE, FORCE, PHASE_START, TOUCHDOWN_X, TD_ANGLE) = range(11)
+STATE_SIZE = 11
 
 CLEARANCE = 0.03          # [m] the foot's height above the ground before the leg swings forward after liftoff
 RETRACT = 0.04            # [m] leg retraction in ascent: clears the ground the foot just left
@@ -151,8 +149,7 @@ class HopperController(LeafSystem):
     def initial_state(self, phase: float = DESCENT, energy_bias: float = 0.0) -> np.ndarray:
         """A discrete state vector to start from (``phase``, a known ``energy_bias``)."""
         s = np.zeros(STATE_SIZE)
-        s[PHASE], s[STAMP], s[BIAS], s[MIN_LEG] = phase, -1.0, energy_bias, math.inf
-        s[TARGET] = s[LAST_TARGET] = math.nan
+        s[PHASE], s[STAMP], s[BIAS], s[TARGET] = phase, -1.0, energy_bias, math.nan
         return s
 
     def _output(self, context, output: BasicVector):
@@ -215,11 +212,10 @@ class HopperController(LeafSystem):
             energy = apex_energy(z, xd, g)
             if s[TARGET] == s[TARGET]:
                 s[BIAS] += BIAS_GAIN * (s[TARGET] - energy)
-            s[LAST_TARGET] = s[TARGET]
             s[TARGET] = command.energy if command.energy is not None else energy
             phase = DESCENT
         elif phase == DESCENT and rest - leg > TOUCHDOWN_COMPRESSION and legd < TOUCHDOWN_RATE:
-            phase, s[MIN_LEG] = STANCE, leg
+            phase = STANCE
             s[STEP] += 1.0
             s[TOUCHDOWN_X] = x + leg * math.sin(pitch + hip)
             s[TD_ANGLE] = pitch + hip
@@ -231,7 +227,6 @@ class HopperController(LeafSystem):
             s[TARGET] = command.energy if command.energy is not None else apex_energy(z, xd, g)
         angle, angle_rate = pitch + hip, pitchd + hipd
         if phase == STANCE:
-            s[MIN_LEG] = min(s[MIN_LEG], leg)
             kp, kd = STANCE_GAINS
             # lean against the pitch the next flight's leg swing will cause (about symmetric: -angle to +angle)
             lean = self.swing_ratio * s[TD_ANGLE]

@@ -100,7 +100,6 @@ def _set(root, path: str, value) -> None:
 def hopper_sdf(params: RobotParams) -> str:
     """The packaged SDF with ``params`` written into it."""
     text = resources.files("drakeslip.multibody").joinpath(SDF_FILE).read_text()
-    ET.register_namespace("drake", "drake.mit.edu")
     root = ET.fromstring(text.replace("drake:", "drake__"))   # the drake: prefix has no declared namespace
     model = root.find("model")
     links = {link.get("name"): link for link in model.findall("link")}
