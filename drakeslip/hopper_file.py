@@ -34,6 +34,8 @@ FOLDER_FILE = "hopper.json"            # the hopper file inside a hopper folder
 PACKAGED = Path(__file__).resolve().parent / "hoppers"
 PARAM_FIELDS = ("mass", "leg_length", "stiffness", "gravity", "friction", "min_leg_length")  # SlipParams's order
 REQUIRED = ("mass", "leg_length", "stiffness")
+# What makes the hopper: every parameter but the friction, which runs take from the ground (a suite's, a plan's).
+BODY_FIELDS = ("mass", "leg_length", "stiffness", "gravity", "min_leg_length")
 FIELDS = ("format", "name", *PARAM_FIELDS, "stroke")
 
 
@@ -193,6 +195,33 @@ def hopper_from_record(record, where: str) -> Hopper:
     if unknown:
         raise ValueError(f"{where}.params: unknown field {unknown[0]!r} (the fields are {', '.join(PARAM_FIELDS)})")
     return Hopper(params_from_fields(params, f"{where}.params"), name, digest)
+
+
+def describe_params(params: SlipParams) -> str:
+    """'7 kg, L0 0.5 m, 3200 N/m, stroke 0.4' (and g when it is not the Earth's)."""
+    stroke = 1.0 - params.min_leg_length / params.leg_length
+    gravity = "" if params.gravity == 9.81 else f", g {params.gravity:.4g} m/s^2"
+    return (f"{params.mass:.4g} kg, L0 {params.leg_length:.4g} m, {params.stiffness:.5g} N/m, "
+            f"stroke {stroke:.3g}{gravity}")
+
+
+def check_same_hopper(hopper: Hopper, params: SlipParams, what: str) -> None:
+    """ValueError in one line when ``params`` (what ``what``, e.g. "plan file out/plan.json", was made for) is
+    another hopper than ``hopper``: a body field (BODY_FIELDS) differs. The friction is the ground's and may."""
+    other = [key for key in BODY_FIELDS if getattr(params, key) != getattr(hopper.params, key)]
+    if other:
+        key = other[0]
+        raise ValueError(f"{what} is for another hopper ({describe_params(params)}) than {hopper.name!r} "
+                         f"({describe_params(hopper.params)}): {key} {getattr(params, key)!r} != "
+                         f"{getattr(hopper.params, key)!r}")
+
+
+def hopper_for(params: SlipParams) -> Hopper:
+    """The hopper to record for ``params``: the paper's when its body is the paper's, else one named 'custom'."""
+    paper = paper_hopper()
+    if all(getattr(params, key) == getattr(paper.params, key) for key in BODY_FIELDS):
+        return paper
+    return Hopper(params, "custom")
 
 
 def packaged_hoppers() -> list[str]:

@@ -15,6 +15,15 @@ A profile has four kinds of noise, each drawn from a seeded generator so that a 
 ``realistic`` is a robot with a decent state estimator and position-controlled leg: 5 mm and 2 cm/s of apex
 error, 0.005 rad of leg angle, 2 % of stiffness and mass, 0.05 of friction, 1 cm of terrain height and edge
 position. ``scaled(k)`` multiplies every size by k.
+
+A profile's sizes are those of the paper's hopper (``drakeslip.units``); another hopper's sensors and actuators
+are as good for its size (``for_hopper``): its position, terrain height and edge errors are the profile's times its
+length factor, its apex speed error times its speed factor and its friction error times its friction over the
+paper's 0.8, while the leg angle [rad] and the relative stiffness and mass errors, dimensionless, stay. A robot's
+state estimate comes from its leg's kinematics and its map from a sensor looking as far ahead as its perception
+window, both in its lengths; with the errors in metres whatever the hopper, a 0.3 m leg would carry 1.7 times the
+paper's relative errors and a 1.2 m leg 0.4 times them, and a Froude-similar hopper would not run as the paper's
+does. For the paper's hopper every factor is exactly 1.0 and ``for_hopper`` returns the profile itself.
 """
 from __future__ import annotations
 
@@ -24,6 +33,7 @@ import numpy as np
 
 from drakeslip.params import SlipParams, check_number
 from drakeslip.terrain import Terrain
+from drakeslip.units import PAPER, units_of
 
 MIN_FRICTION = 0.05  # a drawn friction coefficient never goes below this
 
@@ -68,6 +78,18 @@ class NoiseProfile:
     def to_dict(self) -> dict:
         return {**asdict(self), "apex": list(self.apex)}
 
+    def for_hopper(self, params: SlipParams) -> "NoiseProfile":
+        """This profile, its sizes the paper's hopper's, for the hopper ``params`` (see the module doc): lengths
+        times its length factor, the apex speed error times its speed factor, the friction error times
+        ``friction_factor(params)``. The profile itself for the paper's hopper."""
+        units, grip = units_of(params), friction_factor(params)
+        length, speed = units.length, units.speed
+        if length == speed == grip == 1.0:
+            return self
+        x, z, xdot = self.apex
+        return NoiseProfile((x * length, z * length, xdot * speed), self.leg_angle, self.stiffness, self.mass,
+                            self.friction * grip, self.heights * length, self.edges * length)
+
     # ---- draws ------------------------------------------------------------------------------------------------
     def executed_params(self, params: SlipParams, rng: np.random.Generator) -> SlipParams:
         """The executed hopper: the model with this case's stiffness, mass and friction errors."""
@@ -94,6 +116,12 @@ class NoiseProfile:
         shift = float(rng.normal()) * self.edges
         return Terrain(heights, terrain.cell, terrain.x0 + shift, terrain.ditch_height,
                        terrain.extends_flat).denoised(self.heights, map_filter)
+
+
+def friction_factor(params: SlipParams) -> float:
+    """The hopper's friction coefficient over the paper's (0.8): what a friction error made for the paper's hopper is
+    multiplied by for it (1.0 for the paper's)."""
+    return params.friction / PAPER.friction
 
 
 PROFILES = {

@@ -20,7 +20,7 @@ from drakeslip.state import ApexState, FailureMode, check_apex, check_leg_angle
 from drakeslip.stepmap import step_batch
 from drakeslip.terrain import Terrain
 
-BACKENDS = ("fast", "drake")
+BACKENDS = ("fast", "drake", "multibody")
 # A noisy command is clipped just short of a horizontal leg, the step map's domain; such a hop fails anyway.
 ANGLE_LIMIT = math.pi / 2 - 1e-9
 HOP_SECONDS = 5.0  # a hop longer than this is a STALL (drakeslip.simulation), so n hops end within 5 (n + 1) s
@@ -62,7 +62,9 @@ def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, foothol
     ``f(apex, hop) -> angle | None`` (None stops). ``max_hops`` caps the hops. ``angle_errors`` (per hop, rad) are
     added to each command; ``apex_errors`` (per hop, (x, z, xdot)) to the apex the controller or policy is told;
     ``sensed_terrain`` is what the controller aims on (default: ``terrain``). ``backend``: ``"drake"`` (the hybrid
-    simulator; ``log``, ``integrator`` and ``max_time`` go to ``drakeslip.simulate``) or ``"fast"``."""
+    simulator; ``log``, ``integrator`` and ``max_time`` go to ``drakeslip.simulate``), ``"fast"``, or
+    ``"multibody"`` (the multibody robot built around ``params``, ``drakeslip.multibody``: footholds only, aimed
+    at by the robot's own controller; ``log`` keeps its trajectory)."""
     params = params or SlipParams()
     apex = check_apex(apex, terrain, params)
     angle_errors = None if angle_errors is None else np.asarray(angle_errors, dtype=np.float64)[None]
@@ -92,6 +94,8 @@ def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, le
         raise ValueError(f"a rollout needs at least one hop to command, got {hops}")
     if backend == "fast":
         return _fast(starts, terrain, params, command, hops)
+    if backend == "multibody":
+        return [_multibody(i, start, terrain, params, command, hops, log, max_time) for i, start in enumerate(starts)]
     return [_drake(i, start, terrain, params, command, hops, log, integrator, max_time)
             for i, start in enumerate(starts)]
 
@@ -184,6 +188,25 @@ def _fast(starts, terrain, params, command: _Commands, hops) -> list[Rollout]:
         alive = alive[r.ok]
         hop += 1
     return records
+
+
+def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_time) -> Rollout:
+    from drakeslip.multibody.execute import execute
+    from drakeslip.multibody.robot import RobotParams
+
+    if command.footholds is None:
+        raise ValueError("the multibody robot executes footholds (its controller aims at them), not leg angles")
+    if start[1] <= terrain.height_at(start[0]):
+        return Rollout(failure=FailureMode.TRIP, failed_hop=0, end_state=(*map(float, start), 0.0))
+    footholds = command.footholds[:hops]
+    apex_errors = None if command.apex_errors is None else command.apex_errors[draw]
+    angle_errors = None if command.angle_errors is None else command.angle_errors[draw]
+    hops = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
+                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time)
+    failure = hops.failure
+    return Rollout(list(hops.footholds), list(hops.apexes), list(hops.leg_angles),
+                   None if failure is None else failure.mode, -1 if failure is None else failure.hop,
+                   None if failure is None else failure.state, hops if log else None)
 
 
 def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrator, max_time) -> Rollout:

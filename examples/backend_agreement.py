@@ -4,6 +4,7 @@
 
 Each random hop runs on both backends; the report counts the cases whose outcome differs (ok, or which failure)
 and those where both succeed but the foothold or the next apex differ by more than --tolerance, and lists them.
+--hopper runs the hops of another hopper (its apexes start above the ground by its leg length).
 
 A near-tie (a guard grazed within one integration step) can fall either way on two integrators, so a few
 outcome disagreements are expected; --max-disagreement sets how many are tolerated.
@@ -25,6 +26,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the random hops")
     ap.add_argument("--families", type=cli.names, default="step",
                     help=f"terrain families, comma-separated, from {','.join(sorted(TERRAIN_FAMILIES))}")
+    cli.add_hopper(ap)
     ap.add_argument("--tolerance", type=cli.positive, default=2e-3,
                     help="foothold / next-apex deviation [m] beyond which two successful hops disagree")
     ap.add_argument("--max-disagreement", type=cli.probability, default=0.01,
@@ -37,7 +39,8 @@ def main(argv=None) -> int:
 
     from verification.backend_agreement import compare_backends
 
-    report = compare_backends(args.cases, args.seed, tuple(args.families), tolerance=args.tolerance)
+    params = None if args.hopper is None else args.hopper.params
+    report = compare_backends(args.cases, args.seed, tuple(args.families), params, tolerance=args.tolerance)
     print(report.format())
     agree = report.disagreement_rate <= args.max_disagreement and not report.beyond_tolerance
     return cli.OK if agree else cli.FAILED

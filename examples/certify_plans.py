@@ -6,7 +6,8 @@ For every planner label and every chosen case, the plan from the case's start ap
 saved as a plan file would save it and checked by verification/plan_check.py: CERTIFIED when the Drake run
 completes every hop with no failure, touches down within --tolerance of every foothold, reaches every predicted
 apex within --tolerance and reaches the plan's target; else the first mismatch. Finished cases are kept in
-OUT.cases.jsonl (a killed run resumes).
+OUT.cases.jsonl (a killed run resumes). The plans are made for the suite's hopper; --hopper (a hopper file or folder)
+must be that one, and a folder's weights are then read; the results record the hopper.
 
 Exit status: 0 when the checks ran (whatever their verdicts), 2 for a usage or input error.
 """
@@ -16,6 +17,7 @@ import hashlib
 import json
 import sys
 from collections import Counter
+from dataclasses import asdict
 
 from drakeslip.jobs import cli
 from planners.registry import check_label, labels, planner_name
@@ -29,6 +31,7 @@ def main(argv=None) -> int:
     ap.add_argument("--planners", type=cli.names, default=",".join(searched), help="planner labels, comma-separated")
     ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
     ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")
+    cli.add_hopper(ap, default="the suite's")
     ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")
     ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE, help="foothold and apex tolerance [m, m/s]")
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON")
@@ -41,24 +44,30 @@ def main(argv=None) -> int:
 
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import JsonLinesStore, run, write_json
-    from planners.formats.suite import load_suite
+    from planners.formats.suite import load_suite, terrain_record
+    from planners.formats.suite_draw import hopper_for_suite
+    from planners.registry import hopper_specs
     from verification import certify
     from verification.provenance import provenance
 
     try:
-        specs = {check_label(label): None for label in args.planners}
+        suite = load_suite(args.suite)
+        hopper = hopper_for_suite(suite, args.hopper)
+        specs = hopper_specs({check_label(label): None for label in args.planners}, hopper)
         setup = (certify.prepare, (specs,))
         prepare(setup)
-        suite = load_suite(args.suite)
     except (OSError, ValueError) as error:
         ap.error(str(error))
+    # the paper's hopper is left out of the task (and its key), so its cached cases stay valid
+    body = None if suite.hopper is None else asdict(hopper.params)
     cli.announce(argv)
     cases = list(suite.cases[::args.every])[:args.cases]
     key = lambda label, c: hashlib.sha256(json.dumps(
-        [label, c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode, args.tolerance],
-        sort_keys=True).encode()).hexdigest()[:20]
-    tasks = [(key(label, c), (label, {"id": c.id, "terrain": c.terrain.to_dict(), "apex": c.apex._asdict()},
-                               suite.goal_x, suite.friction, args.mode, args.tolerance)) for label in specs for c in cases]
+        [label, c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode, args.tolerance,
+         *([body] if body else [])], sort_keys=True).encode()).hexdigest()[:20]
+    tasks = [(key(label, c), (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
+                               suite.goal_x, suite.friction, args.mode, args.tolerance, body))
+             for label in specs for c in cases]
     records = {}
     with tqdm(total=len(tasks), disable=args.quiet, unit="plan", desc=suite.name) as bar:
         for k, record in run(certify.certify_case, tasks, JsonLinesStore(str(args.out) + ".cases.jsonl"), executor,
@@ -66,8 +75,8 @@ def main(argv=None) -> int:
             records[k] = record
             bar.update()
     ordered = [records[k] for k, _ in tasks]
-    write_json(args.out, {"suite": suite.name, "mode": args.mode, "tolerance": args.tolerance, "plans": ordered,
-                          "provenance": provenance()})
+    write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode,
+                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance()})
     print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7} {'malformed':>9}  first mismatches")
     for label in specs:
         mine = [r for r in ordered if r["label"] == label]

@@ -5,12 +5,17 @@
 Targets are footholds the hopper really reaches: random apex states (0.5-3 m/s, 0.7-1.2 m above the ground)
 and leg angles are simulated with the fast step map and the successful touchdowns kept. The controller is
 then asked for each of those footholds and its leg angle simulated again: the error is |landed - target|.
-A random subset is re-run on the Drake simulator to confirm (--drake 0: none).
+A random subset is re-run on the Drake simulator to confirm (--drake 0: none). --hopper measures the controller for
+another hopper (``StepLengthController.for_params``: the same network in the hopper's units), on the same terrains,
+apexes and errors made the hopper's (lengths times its leg length over 0.5 m, speeds times sqrt(g L0) over the
+paper's, apex heights also by how much less of a drop its spring takes, leg angles by its friction cone over the
+paper's: ``planners.formats.suite_draw.start_height_factor``, as suites drawn for it start).
 
 Exit status: 0 when the measurement ran, 2 for a usage or input error (e.g. a damaged weights file).
 """
 from __future__ import annotations
 
+import math
 import sys
 
 import numpy as np
@@ -24,10 +29,16 @@ N_STEPPED = 10  # stepped terrain: step_world seeds 0..9, the samples spread ove
 
 def targets(terrain, params, n: int, rng):
     from drakeslip import step_batch
+    from drakeslip.units import PAPER, units_of
+    from planners.formats.suite_draw import start_height_factor
 
-    x = rng.uniform(-1.0, 15.0, n)
-    apex = np.stack([x, terrain.height_at(x) + rng.uniform(0.7, 1.2, n), rng.uniform(0.5, 3.0, n)], axis=1)
-    res = step_batch(apex, rng.uniform(-0.6, 0.6, n), terrain, params, parallel=True)
+    units = units_of(params)
+    drop = units.length * start_height_factor(params, 1.2)
+    cone = math.atan(params.friction) / math.atan(PAPER.friction)
+    x = rng.uniform(-1.0, 15.0, n) * units.length
+    apex = np.stack([x, terrain.height_at(x) + rng.uniform(0.7, 1.2, n) * drop,
+                     rng.uniform(0.5, 3.0, n) * units.speed], axis=1)
+    res = step_batch(apex, rng.uniform(-0.6, 0.6, n) * cone, terrain, params, parallel=True)
     return apex[res.ok], res.touchdown_x[res.ok]
 
 
@@ -48,6 +59,7 @@ def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--controller", type=cli.input_file, default=DEFAULT_WEIGHTS,
                     help="controller weights file (default: the committed drakeslip/weights/controller.pt)")
+    cli.add_hopper(ap)
     ap.add_argument("--samples", type=cli.integer(N_STEPPED), default=20000,
                     help=f"random hops per terrain kind, before keeping the successful ones (at least {N_STEPPED}: "
                          f"the stepped kind spreads them over {N_STEPPED} terrains)")
@@ -64,10 +76,17 @@ def main(argv=None) -> int:
 
     from drakeslip import step, step_batch  # the step maps: numba, and pydrake for the Drake one
 
-    params = SlipParams()
+    from drakeslip.terrain_file import scaled_terrain
+    from drakeslip.units import units_of
+
+    params = SlipParams() if args.hopper is None else args.hopper.params
+    controller = controller.for_params(params)
+    length = units_of(params).length
     rng = np.random.default_rng(args.seed)
     kinds = [("flat", [Terrain.flat(length=25.0)]),
              (f"stepped (step_world 0-{N_STEPPED - 1})", [step_world(s) for s in range(N_STEPPED)])]
+    if length != 1.0:
+        kinds = [(name, [scaled_terrain(t, length) for t in terrains]) for name, terrains in kinds]
     backends = ("fast", "drake") if args.drake else ("fast",)
     for name, terrains in kinds:
         cases = [(t, *targets(t, params, args.samples // len(terrains), rng)) for t in terrains]

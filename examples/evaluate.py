@@ -19,6 +19,10 @@ a spread-out sample of the cases:
         --options '{"step": {"step_map": "drake"}, "lstm-guided": {"step_map": "drake"}}' --baseline step \
         --out out/drake.json
 
+The planners plan for the suite's hopper (the paper's when it records none), and the results record it. --hopper (a
+hopper file or folder, examples/train_hopper.py) must be that hopper, whose folder's weights the planners then
+read; a suite drawn for another hopper is refused in one line (examples/make_suites.py --hopper draws one for it).
+
 Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite
 value outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs. Ctrl-C
 ends it with one line saying how many results were saved, and by SIGINT (a shell shows status 130).
@@ -47,6 +51,7 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
     ap.add_argument("--options", default="{}",
                     help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
+    cli.add_hopper(ap, default="the suite's")
     ap.add_argument("--controller", type=cli.input_file, default=None,
                     help="controller weights (default: the committed drakeslip/weights/controller.pt)")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
@@ -58,8 +63,9 @@ def main(argv=None) -> int:
     ap.add_argument("--noise", type=cli.noise_profile, default="none",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
-    ap.add_argument("--backend", choices=("drake", "fast"), default="drake",
-                    help="what executes the plans: the Drake simulator (the protocol) or the fast step map")
+    ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",
+                    help="what executes the plans: the Drake simulator of the SLIP (the protocol), the fast step "
+                         "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
     ap.add_argument("--baseline", default=None,
@@ -84,6 +90,10 @@ def main(argv=None) -> int:
             check_window(args.map_filter, "map_filter")
         except ValueError as error:
             ap.error(f"--map-filter: {error}")
+    if args.backend == "multibody":   # the planners plan for the template fitted to the robot, when there is one
+        from drakeslip.multibody.fit import fitted_template
+
+        loop_options["template"] = fitted_template()
     configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
                                        refine=not args.mlp_only, noise=args.noise, seed=args.seed)
                for label in labels}
@@ -91,12 +101,15 @@ def main(argv=None) -> int:
     from drakeslip.jobs.executors import prepare
     from drakeslip.jobs.runner import remove, write_json
     from planners.formats.suite import load_suite
+    from planners.formats.suite_draw import hopper_for_suite
+    from planners.registry import hopper_specs
     from verification.evaluation import evaluate, worker_setup
     from verification.report import ratios, table
 
     specs = {label: options.get(label) for label in labels}
     try:
         suite = load_suite(args.suite)
+        specs = hopper_specs(specs, hopper_for_suite(suite, args.hopper))
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))

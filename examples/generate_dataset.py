@@ -10,8 +10,11 @@ Each shard is a task of the job runner (drakeslip.jobs): it runs in this process
 worker processes, or on a Ray cluster with --jobs shards in flight, and returns its arrays; this process writes
 each shard atomically as it arrives, so the workers need no filesystem shared with it, and rerunning the same
 command resumes: only the missing shards are generated. OUT/config.json records the settings; a folder made with
-other settings is refused. The shards are the same whatever the executor and --jobs. The recipes that train the
-committed models from these datasets are in docs/reproduction.md, "Regenerating the weights".
+other settings is refused. --hopper (a hopper file or folder) makes the data for another hopper than the paper's:
+its terrains and starts are the paper's made its own as suites drawn for it are, the ranges above in the paper's
+units (planners/learned/training/config.py, ``DatasetConfig.hopper``). The shards are the same whatever the
+executor and --jobs. The recipes that train the committed models from these datasets are in docs/reproduction.md,
+"Regenerating the weights".
 """
 from __future__ import annotations
 
@@ -56,8 +59,10 @@ def parser() -> cli.ArgumentParser:
                     help="initial apex speed: low,high [m/s]")
     ap.add_argument("--branching", type=cli.positive_int, default=DatasetConfig.branching,
                     help="--planner angle: leg angles tried per node")
-    ap.add_argument("--friction", type=cli.positive, default=DatasetConfig.friction,
-                    help="friction coefficient of the searches and rollouts")
+    cli.add_hopper(ap)
+    ap.add_argument("--friction", type=cli.positive, default=None,
+                    help=f"friction coefficient of the searches and rollouts (default: the hopper's, "
+                         f"{DatasetConfig.friction} for the paper's)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=DatasetConfig.seed,
                     help="seed of the terrains and initial states")
     ap.add_argument("--shard-size", type=cli.positive_int, default=DatasetConfig.instances_per_shard,
@@ -67,13 +72,27 @@ def parser() -> cli.ArgumentParser:
     return ap
 
 
+def dataset_hopper(hopper) -> dict | None:
+    """``DatasetConfig.hopper`` for --hopper: None for the paper's body (the paper's data), else its fields."""
+    from dataclasses import asdict
+
+    from drakeslip.units import PAPER
+
+    if hopper is None or hopper.params.with_friction(PAPER.friction) == PAPER:
+        return None
+    return asdict(hopper.params)
+
+
 def main(argv=None):
     ap = parser()
     args = ap.parse_args(argv)
     try:
         cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
                             height_range=args.heights, speed_range=args.speeds, n_terrains=args.terrains,
-                            apexes_per_terrain=args.apexes, branching=args.branching, friction=args.friction,
+                            apexes_per_terrain=args.apexes, branching=args.branching,
+                            friction=args.friction or (args.hopper.params.friction if args.hopper
+                                                       else DatasetConfig.friction),
+                            hopper=dataset_hopper(args.hopper),
                             seed=args.seed, instances_per_shard=args.shard_size, subcells=args.subcells,
                             explore=args.explore, policy=str(args.policy) if args.policy else "",
                             expert_look_ahead=args.look_ahead, families=tuple(args.families))

@@ -8,7 +8,9 @@ themselves run in Drake's simulator.
     python3 examples/hop.py --terrain step --seed 3 --out out/hop.png --anim out/hop.gif --html out/hop.html
 
 --html writes a Meshcat replay (one HTML file, opens offline) with the lookahead's predicted footholds and
-apexes beside what Drake did.
+apexes beside what Drake did. --hopper takes a hopper file or folder, --terrain a family (drawn for the hopper as
+examples/make_suites.py --hopper draws it) or a terrain file (a height profile, drakeslip/terrain_file.py); --z and
+--xdot left out are the paper's 0.75 m above the ground and 1.5 m/s in the hopper's units.
 """
 from __future__ import annotations
 
@@ -93,7 +95,10 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--terrain", choices=["flat", *sorted(ds.TERRAIN_FAMILIES)], default="step", help="terrain family")
+    cli.add_hopper(ap)
+    families = ["flat", *sorted(ds.TERRAIN_FAMILIES)]
+    ap.add_argument("--terrain", type=cli.terrain_or_family(*families), default="step",
+                    help=f"terrain family ({', '.join(families)}) or terrain file (a height profile)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="terrain seed")
     ap.add_argument("--hops", type=cli.positive_int, default=10, help="number of hops to simulate")
     ap.add_argument("--out", type=cli.output_file(".png", ".pdf", ".svg"), required=True, help="figure to write")
@@ -101,20 +106,36 @@ def main(argv=None) -> int:
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay (self-contained HTML)")
     ap.add_argument("--x0", type=cli.physical(POSITION), default=0.0, help="start apex x [m]")
-    ap.add_argument("--z", type=cli.physical(POSITION), default=0.75, help="start apex height, absolute [m]")
-    ap.add_argument("--xdot", type=cli.physical(SPEED, positive=True), default=1.5,
-                    help="start apex speed [m/s], also the lookahead's nominal speed")
+    ap.add_argument("--z", type=cli.physical(POSITION), default=None,
+                    help="start apex height, absolute [m] (default: 0.75 m above the ground, in the hopper's units)")
+    ap.add_argument("--xdot", type=cli.physical(SPEED, positive=True), default=None,
+                    help="start apex speed [m/s], also the lookahead's nominal speed (default: 1.5, in the hopper's "
+                         "units)")
     args = ap.parse_args(argv)
 
-    params = ds.SlipParams()
-    terrain = ds.Terrain.flat() if args.terrain == "flat" else ds.TERRAIN_FAMILIES[args.terrain](args.seed)
-    start = ds.ApexState(args.x0, args.z, args.xdot)
+    from drakeslip.terrain_file import scaled_terrain
+    from drakeslip.units import PAPER, units_of
+
+    params = ds.SlipParams() if args.hopper is None else args.hopper.params
+    units = units_of(params)
+    if isinstance(args.terrain, cli.TerrainFile):
+        terrain, args.terrain = args.terrain.terrain, f"file {args.terrain.path}"
+    elif args.terrain == "flat":
+        terrain = ds.Terrain.flat() if units.length == 1.0 else scaled_terrain(ds.Terrain.flat(), units.length)
+    elif params.with_friction(PAPER.friction) == PAPER:
+        terrain = ds.TERRAIN_FAMILIES[args.terrain](args.seed)
+    else:
+        from planners.formats.suite_draw import hopper_terrain, suite_scales
+
+        terrain = hopper_terrain(args.terrain, args.seed, suite_scales(params))
+    z = terrain.height_at(args.x0) + 0.75 * units.length if args.z is None else args.z
+    start = ds.ApexState(args.x0, z, 1.5 * units.speed if args.xdot is None else args.xdot)
     if start.z <= terrain.height_at(start.x):
         ap.error(f"the start apex z={start.z} is not above the terrain (height {terrain.height_at(start.x)} at "
                  f"x={start.x})")
     from drakeslip.viz import animate, plot_trajectory
 
-    policy = TwoHopLookahead(terrain, params, nominal_speed=args.xdot)
+    policy = TwoHopLookahead(terrain, params, nominal_speed=start.xdot)
     print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
     result = ds.simulate(start, policy, terrain, params, max_hops=args.hops)
     report(result, policy, start)

@@ -1,12 +1,13 @@
 """Does planning work for any hopper? Hoppers drawn at random from the toolkit's range (and its two corners), a
-ditch suite drawn for each, the planners held to issue 35's bars (verification/hopper_acceptance.py):
+ditch suite drawn for each, the planners held to the acceptance bars of verification/hopper_acceptance.py:
 
     python3 examples/hopper_acceptance.py --hoppers 4 --seed 35 --every 3 --backend drake --jobs 2 --out out/acceptance
 
 Per hopper: ``step`` on the ditch suite without noise (>= 95 %), ``step@robust`` under realistic noise (>= 90 %),
 ``lstm-guided`` without noise (within 5 points of step, fewer ODE calls per plan); ``--families step,mixed``
 adds those families for step and lstm-guided (reported, no bar). Suites are drawn from terrain seed ``--suite-seed``
-(a fresh one: the committed suites use 1000 and 2000). Results go to OUT/HOPPER-FAMILY.json, each with its case
+(a fresh one: the committed suites use 1000 and 2000). --hopper FILE|DIR checks that hopper alone (a hopper
+folder's weights from examples/train_hopper.py are then read) instead of the drawn ones. Results go to OUT/HOPPER-FAMILY.json, each with its case
 cache, so a killed run resumes. Prints one table; exit 0 when every bar holds, 1 when one does not, 2 for a usage
 error.
 """
@@ -19,6 +20,7 @@ from drakeslip.jobs import cli
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
+    cli.add_hopper(ap, default="the drawn hoppers")
     ap.add_argument("--hoppers", type=cli.non_negative_int, default=4, help="random hoppers after the two corners")
     ap.add_argument("--seed", type=cli.non_negative_int, default=35, help="seed of the hopper draws")
     ap.add_argument("--no-corners", action="store_true", help="only the random hoppers")
@@ -41,7 +43,8 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import write_json
     from verification.hopper_acceptance import RUNS, checks, describe, evaluate_hopper, random_hoppers
 
-    hoppers = random_hoppers(args.seed, args.hoppers, corners=not args.no_corners)
+    hoppers = ([args.hopper] if args.hopper
+               else random_hoppers(args.seed, args.hoppers, corners=not args.no_corners))
     args.out.mkdir(parents=True, exist_ok=True)
     rows = ["| hopper | family | planner | success % | ODE calls / plan | bar | holds |", "|---|---|---|---|---|---|---|"]
     ok = True

@@ -1,7 +1,6 @@
-"""How good is the footstep model as a guide for planning? Five diagnostics (docs/results.md, "The learned
-planners on fresh suites" and "DAgger"):
+"""How good is the footstep model as a guide for planning? Five diagnostics (docs/learned.md):
 
-    python3 examples/lstm_diagnostics.py --suite out/fresh/ditch-8000.json --every 3 \\
+    python3 examples/lstm_diagnostics.py --suite suites/ditch.json --every 15 --cases 10 \\
         --model planners/weights/lstm_paper.pt
 
 The model diagnosed is --model (default: the paper's, planners/weights/lstm_paper.pt), in every planner below.

@@ -6,6 +6,11 @@ planning call; the file holds the whole terrain, so examples/verify_plan.py chec
     python3 examples/make_plan.py --suite suites/step.json --case 7 --planner step --out out/plan.json
     python3 examples/make_plan.py --suite suites/step.json --case 7 --planner trajopt \
         --options '{"seed": "lstm-guided"}' --out out/trajopt-plan.json
+    python3 examples/make_plan.py --hopper my_hopper.json --terrain my_ground.csv --planner step --out out/plan.json
+
+The plan is made for the suite's hopper (--hopper, a hopper file or folder, must be that one: its folder's weights
+are then read) and recorded in the file. --terrain plans on a terrain file instead of a suite's case, for --hopper
+(default: the paper's), from the start plan_and_hop.py takes (--start-x, --speed, --height, --goal as there).
 
 --plot PATH.png draws the search tree the planner expanded over the terrain, the plan in bold (the search
 planners, angle and step, run their search once more to keep the tree: the same search, the same plan; other
@@ -17,6 +22,7 @@ from __future__ import annotations
 
 import sys
 
+from drakeslip.bounds import POSITION, SPEED
 from drakeslip.jobs import cli
 from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
@@ -24,8 +30,19 @@ from planners.registry import check_label, labels
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (drakeslip-suite/1 JSON)")
-    ap.add_argument("--case", required=True, help="case index (0-based) or case id")
+    ground = ap.add_mutually_exclusive_group(required=True)
+    ground.add_argument("--suite", type=cli.input_file, help="suite file (drakeslip-suite/1 JSON)")
+    ground.add_argument("--terrain", type=cli.terrain_or_family(), help="terrain file (a height profile)")
+    ap.add_argument("--case", default=None, help="with --suite: case index (0-based) or case id")
+    cli.add_hopper(ap, default="the suite's, else the paper's")
+    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+                    help="with --terrain: start apex x [m] (default: plan_and_hop.py's)")
+    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
+                    help="with --terrain: start apex speed [m/s] (default: plan_and_hop.py's, made the hopper's)")
+    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
+                    help="with --terrain: start apex height above the ground [m] (default: plan_and_hop.py's)")
+    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+                    help="with --terrain: goal x [m] (default: plan_and_hop.py's, made the hopper's)")
     ap.add_argument("--planner", required=True, help=f"planner label: one of {', '.join(labels())}, or NAME@VARIANT")
     ap.add_argument("--options", default="{}",
                     help='the planner\'s options as a JSON object, e.g. \'{"seed": "lstm-guided"}\' for trajopt')
@@ -40,14 +57,23 @@ def main(argv=None) -> int:
     if not isinstance(options, dict):
         ap.error(f"--options must be a JSON object of planner options, got {args.options!r}")
 
-    from drakeslip import SlipParams
+    from drakeslip.units import units_of
     from planners.formats.plan import save_plan
     from planners.formats.suite import load_suite
-    from planners.registry import make_planners
+    from planners.formats.suite_draw import hopper_for_suite, one_case
+    from planners.registry import hopper_specs, make_planners
 
+    if (args.suite is None) != (args.case is None):
+        ap.error("--case goes with --suite (and --suite needs it)")
     try:
-        suite = load_suite(args.suite)
-        planner = make_planners({check_label(args.planner): options})[args.planner]
+        if args.suite is not None:
+            suite = load_suite(args.suite)
+            hopper = hopper_for_suite(suite, args.hopper)
+        else:
+            suite = one_case(args.terrain.terrain, hopper=args.hopper, speed=args.speed, height=args.height,
+                             goal_x=args.goal, start_x=args.start_x)
+            hopper, args.case = hopper_for_suite(suite, args.hopper), "0"
+        planner = make_planners(hopper_specs({check_label(args.planner): options}, hopper))[args.planner]
     except (OSError, ValueError) as error:
         ap.error(str(error))
     ids = [c.id for c in suite.cases]
@@ -57,15 +83,15 @@ def main(argv=None) -> int:
         case = suite.cases[int(args.case)]
     else:
         ap.error(f"--case {args.case!r} is neither a case id nor an index below {len(ids)} in {args.suite}")
-    params = SlipParams(friction=suite.friction)
-    window = case.terrain.perceived(case.apex.x)
+    params = hopper.params.with_friction(suite.friction)
+    window = case.terrain.perceived(case.apex.x, *units_of(params).window)
     plan = planner.plan(case.apex, window, suite.goal_x, params)
     if args.plot:
         plot_tree(planner, plan, case, window, suite.goal_x, params, args)
     if not plan.success:
         print(f"{args.planner} on {case.id}: {plan.message}")
         return cli.FAILED
-    save_plan(args.out, plan, case.apex, case.terrain, suite.goal_x, params)
+    save_plan(args.out, plan, case.apex, case.terrain, suite.goal_x, params, hopper)
     print(f"{args.planner} on {case.id}: {len(plan.footholds)} footholds to x={plan.footholds[-1]:.3f} "
           f"(target {plan.target_x:g}) in {plan.time_s:.3f} s; wrote {args.out}")
     return cli.OK

@@ -4,15 +4,27 @@
     python3 examples/make_suites.py --seed 5000 --families ditch,step,mixed --out out/fresh   # fresh ones
     python3 examples/make_suites.py --families step --seed 90000 --speeds 0.8,1.5,2.2 --heights 0.65,0.75 \
         --out out/low     # low-energy starts (the oracle's hard cases)
+    python3 examples/make_suites.py --hopper my_hopper.json --seed 7000 --out out/mine   # drawn for a hopper
+    python3 examples/make_suites.py --hopper my_hopper.json --terrains my_profiles/ --out out/mine  # your terrains
+
+--hopper draws each suite for a hopper file (or folder): the paper's problems made the same kind of problem for it
+(planners/formats/suite_draw.py: ditch widths, step heights, start heights and speeds, the course, in its units;
+--speeds and --heights are then the paper hopper's, made the hopper's). --terrains DIR makes one suite, OUT/DIR.json,
+of every terrain file in the folder (.csv, .txt: height profiles or heights per cell, drakeslip/terrain_file.py) x
+every start (--speeds x --heights, in m/s and m above the ground as given; default: the paper's made the hopper's),
+from x = --start-x to the goal --goal (default: the paper's -1 m and 11 m course, made the hopper's).
 
 Each family's suite is written to OUT/NAME.json: NAME is the family for the committed seeds, FAMILY-SEED for
 fresh ones (terrain i of the k-th family uses seed SEED + 1000 k + i).
 
-Exit status: 0 when the suites were written, 2 for a usage error.
+Exit status: 0 when the suites were written, 2 for a usage or input error (a malformed terrain file: one line naming
+its row).
 """
 from __future__ import annotations
 
+import argparse
 import sys
+from pathlib import Path
 
 from drakeslip.bounds import POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
@@ -28,13 +40,54 @@ def main(argv=None) -> int:
                     help="base terrain seed (terrain i of the k-th family uses seed + 1000 k + i); "
                          "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
                                                                            COMMITTED_SEEDS.items()))
-    ap.add_argument("--terrains", type=cli.positive_int, default=PAPER_TERRAINS, help="terrains per suite")
-    ap.add_argument("--speeds", type=cli.numbers(None, cli.physical(SPEED, positive=True)), default=PAPER_SPEEDS,
-                    help="apex speeds of the starts, m/s, comma-separated (default: %(default)s)")
-    ap.add_argument("--heights", type=cli.numbers(None, cli.physical(POSITION, positive=True)), default=PAPER_HEIGHTS,
-                    help="apex heights of the starts, m, comma-separated (default: %(default)s)")
+    ap.add_argument("--terrains", type=count_or_folder, default=PAPER_TERRAINS,
+                    help="terrains per suite, or a folder of terrain files making one suite")
+    cli.add_hopper(ap)
+    ap.add_argument("--speeds", type=cli.numbers(None, cli.physical(SPEED, positive=True)), default=None,
+                    help=f"apex speeds of the starts, m/s, comma-separated (default: {PAPER_SPEEDS})")
+    ap.add_argument("--heights", type=cli.numbers(None, cli.physical(POSITION, positive=True)), default=None,
+                    help=f"apex heights of the starts, m, comma-separated (default: {PAPER_HEIGHTS})")
+    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+                    help="with --terrains DIR: x of the starts [m] (default: -1, made the hopper's)")
+    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+                    help="with --terrains DIR: goal x [m] (default: 10, the course made the hopper's)")
     ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
+    if not isinstance(args.terrains, Path):
+        if args.start_x is not None or args.goal is not None:
+            ap.error("--start-x and --goal go with --terrains DIR (a drawn suite's are the paper's, made the hopper's)")
+        return draw(ap, args, argv)
+    try:
+        args.out.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
+
+    from planners.formats.suite import save_suite
+    from planners.formats.suite_draw import suite_from_terrains
+
+    try:
+        suite = suite_from_terrains(args.terrains, args.hopper, args.speeds, args.heights, args.start_x, args.goal)
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    cli.announce(argv)
+    path = args.out / f"{suite.name}.json"
+    save_suite(suite, path)
+    print(f"wrote {path}: {len(suite.cases)} cases, start x = {suite.cases[0].apex.x:g}, goal x = {suite.goal_x:g}")
+    return cli.OK
+
+
+def count_or_folder(text: str):
+    """An argument type: a positive count (terrains per suite) or a folder of terrain files."""
+    if text.isdigit():
+        return cli.positive_int(text)
+    if not Path(text).is_dir():
+        raise argparse.ArgumentTypeError(f"{text!r} is neither a count of terrains nor a folder of terrain files")
+    return Path(text)
+
+
+def draw(ap, args, argv) -> int:
+    """The suites of --families drawn for --hopper (the paper's: make_suite's)."""
+    args.speeds, args.heights = args.speeds or PAPER_SPEEDS, args.heights or PAPER_HEIGHTS
     try:
         check_families(args.families)
     except ValueError as error:
@@ -48,12 +101,13 @@ def main(argv=None) -> int:
         ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
     cli.announce(argv)
 
-    from planners.formats.suite import make_suite, save_suite
+    from planners.formats.suite import save_suite
+    from planners.formats.suite_draw import draw_suite
 
     for k, family in enumerate(args.families):
         seed = COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
-        suite = make_suite(family, seed, n_terrains=args.terrains, speeds=args.speeds, heights=args.heights,
-                           name=family if args.seed is None else f"{family}-{seed}")
+        suite = draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
+                           heights=args.heights, name=family if args.seed is None else f"{family}-{seed}")
         path = args.out / f"{suite.name}.json"
         save_suite(suite, path)
         print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")

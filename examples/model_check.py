@@ -53,6 +53,7 @@ def main(argv=None) -> int:
     ap.add_argument("--against", type=cli.names, default=None,
                     help="comma-separated results JSON files of examples/evaluate.py on the same suite: report "
                          "the cases a planner crossed that the oracle calls not traversable (exit 1 if any)")
+    cli.add_hopper(ap, default="the suite's; another is refused in one line")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
@@ -66,12 +67,14 @@ def main(argv=None) -> int:
     from drakeslip.jobs.runner import remove, write_json
     from planners.base import Budget
     from planners.formats.suite import load_suite
+    from planners.formats.suite_draw import hopper_for_suite
     from verification.model_check import COARSE, LEVELS, TRAVERSABLE
     from verification.model_check_suite import check_suite, cross_check, select_cases
     from verification.provenance import provenance
 
     try:
         suite = load_suite(args.suite)
+        hopper_for_suite(suite, args.hopper)
         cases = select_cases(suite, args.cases, args.seed, args.ids)
         against = [read_json(f, "--against file") for f in args.against] if args.against else []
         if not all(isinstance(e, dict) and isinstance(e.get("planners"), dict) for e in against):

@@ -2,6 +2,14 @@
 of each plan executed by the learned controller on the Drake hybrid simulator, replanning until the goal.
 
     python3 examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
+    python3 examples/plan_and_hop.py --hopper my_hopper.json --terrain my_ground.csv --html out/replay.html
+
+--hopper takes a hopper file or a hopper folder (examples/train_hopper.py; its planners read the folder's weights)
+and --terrain a terrain family, drawn for the hopper as examples/make_suites.py --hopper draws it, or a terrain
+file (a height profile: drakeslip/terrain_file.py). --start-x, --speed, --height and --goal, when given, are taken
+as given [m, m/s]; left out, they are the paper's start (x = 0, 2 m/s, 0.9 m above the ground) and course (10 m)
+made the hopper's, on a terrain file without ground at x = 0 a start one leg length onto its first solid stretch
+and a goal at most one leg length before its end (planners/formats/suite_draw.py, ``one_case``).
 
 By default the robot is an imperfect one and the planner keeps margins for it: the `realistic` noise profile
 (drakeslip/noise.py: the apex it is told is off by 5 mm and 2 cm/s, the leg by 0.005 rad, its spring, mass and
@@ -21,6 +29,7 @@ from dataclasses import asdict
 from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.jobs import cli
 from drakeslip.terrain import TERRAIN_FAMILIES
+from planners.formats.suite_draw import DEMO_COURSE, DEMO_HEIGHT, DEMO_SPEED
 from planners.closed_loop import EXECUTED_PER_PLAN
 from drakeslip.noise import PROFILES, describe
 from planners.registry import check_label, loop_settings
@@ -30,8 +39,10 @@ FIGURE = (".png", ".pdf", ".svg")
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--terrain", default="mixed", choices=sorted(TERRAIN_FAMILIES), help="terrain family")
-    ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed")
+    cli.add_hopper(ap)
+    ap.add_argument("--terrain", type=cli.terrain_or_family(*sorted(TERRAIN_FAMILIES)), default="mixed",
+                    help=f"terrain family ({', '.join(sorted(TERRAIN_FAMILIES))}) or terrain file (a height profile)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed (of a terrain family)")
     ap.add_argument("--planner", default="step@robust", help="planner label (a name, a preset or NAME@VARIANT)")
     ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
                     help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py)")
@@ -39,37 +50,51 @@ def main(argv=None) -> int:
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
                          f"period, else {EXECUTED_PER_PLAN}, the paper's)")
-    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=2.0,
-                    help="initial apex forward speed [m/s]")
-    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=0.9,
-                    help="initial apex height above the ground [m]")
-    ap.add_argument("--goal", type=cli.number(0.5, 19.0), default=10.0, help="goal x [m] (the terrain ends at 20 m)")
-    ap.add_argument("--friction", type=cli.physical(FRICTION), default=0.8,
-                    help="Coulomb friction coefficient at the foot")
+    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+                    help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground)")
+    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
+                    help=f"initial apex forward speed [m/s] (default: {DEMO_SPEED:g}, made the hopper's)")
+    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
+                    help=f"initial apex height above the ground [m] (default: {DEMO_HEIGHT:g}, made the hopper's)")
+    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+                    help=f"goal x [m], on the terrain (default: {DEMO_COURSE:g} m from the start, made the hopper's)")
+    ap.add_argument("--friction", type=cli.physical(FRICTION), default=None,
+                    help="Coulomb friction coefficient at the foot (default: the hopper's, 0.8 for the paper's)")
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the run (self-contained HTML)")
+    ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
+                    help="what hops: the SLIP on Drake, or the multibody robot (drakeslip/multibody) in one "
+                         "closed-loop Diagram, planning for the template fitted to it")
     args = ap.parse_args(argv)
 
-    from drakeslip import ApexState, SlipParams, StepLengthController
+    from drakeslip import SlipParams, StepLengthController
+    from drakeslip.hopper_file import paper_hopper
     from planners.closed_loop import ClosedLoopConfig, run_case
     from planners.formats.suite import Case
-    from planners.registry import make_planners
+    from planners.formats.suite_draw import one_case
+    from planners.registry import hopper_specs, make_planners
 
+    hopper = args.hopper or paper_hopper()
     try:
         check_label(args.planner)
-        params = SlipParams(friction=args.friction)
+        ground = args.terrain if isinstance(args.terrain, str) else args.terrain.terrain
+        suite = one_case(ground, args.seed, hopper, args.speed, args.height, args.goal, args.start_x)
+        params = hopper.params.with_friction(args.friction or hopper.params.friction)
         controller = StepLengthController.load_default()
-        planner = Recorder(make_planners({args.planner: None}, controller)[args.planner])
+        specs = hopper_specs({args.planner: None}, hopper)
+        planner = Recorder(make_planners(specs, controller)[args.planner])
     except (OSError, ValueError) as error:
         ap.error(str(error))
     cli.announce(argv)
-    terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
-    apex = ApexState(0.0, terrain.height_at(0.0) + args.height, args.speed)
+    case = Case("demo", suite.cases[0].terrain, suite.cases[0].apex)   # the id seeds the noise draws
+    terrain, apex, args.goal, args.start_x = case.terrain, case.apex, suite.goal_x, case.apex.x
     loop = loop_settings(args.planner)
     executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
     config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
-    result = run_case(planner, controller, Case("demo", terrain, apex), args.goal, params, config)
+    if args.backend == "multibody":
+        return hop_robot(planner, terrain, apex, params, config, executed, args)
+    result = run_case(planner, controller, case, args.goal, params, config)
 
     for i, p in enumerate(result["plans"]):
         steps = " ".join(f"{x:.2f}" for x in p["footholds"])
@@ -77,12 +102,53 @@ def main(argv=None) -> int:
               f"{steps or p['message']}")
     outcome = "reached the goal" if result["success"] else f"failed: {result['failure']}"
     noise = "no noise" if args.noise.silent else f"noise {describe(args.noise)}"
-    print(f"{args.planner} (replanning every {executed} hops, {noise}) on {args.terrain} seed {args.seed}: "
+    print(f"{args.planner} for hopper {hopper.name} (replanning every {executed} hops, {noise}) on "
+          f"{where(args)}: "
           f"{outcome} at x = {result['final_x']:.2f} after {len(result['plans'])} plans")
     sim = replay(result, apex, terrain, SlipParams(**result.get("executed_params", asdict(params))))
-    write_figure(sim, result, args)
+    write_figure(sim, result, terrain, args)
     if args.html:
         write_html(sim, result, planner.plans, args)
+    return cli.OK if result["success"] else cli.FAILED
+
+
+def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
+    """The multibody robot in its closed-loop Diagram: print the plans, draw the body's path, write the replay."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from drakeslip.multibody.fit import fitted_template
+    from drakeslip.multibody.replay import write_robot_replay
+    from drakeslip.viz import new_axes, plot_terrain
+    from planners.drake_system import run_closed_loop
+
+    template = fitted_template()
+    template = params if template is None else template.with_friction(params.friction)
+    result = run_closed_loop(planner, SimpleNamespace(id="demo", terrain=terrain, apex=apex), args.goal, template,
+                             noise=config.noise, seed=config.seed, map_filter=config.map_filter,
+                             replan_every=executed, trajectory=True)
+    log = result["log"]
+    for i, p in enumerate(result["plans"]):
+        print(f"plan {i}: from x={p['apex'][0]:.2f}: {' '.join(f'{x:.2f}' for x in p['footholds']) or p['message']}")
+    outcome = "reached the goal" if result["success"] else f"failed: {result['failure']} ({result['what']})"
+    print(f"{args.planner} on the multibody robot, {where(args)}: {outcome} at x = "
+          f"{result['final_x']:.2f}; largest body pitch {result['max_pitch']:.3f} rad; {result['simulated_s']:.1f} s "
+          f"simulated in {result['wall_s']:.1f} s")
+    positions = np.array(log.positions)
+    ax = new_axes((12, 3.5))
+    plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
+    ax.plot(positions[:, 0], positions[:, 1], color="#1f4e99", lw=1.2, label="body")
+    ax.plot(log.footholds, terrain.height_at(np.array(log.footholds)) + 0.02, "o", color="orange", ms=5,
+            mec="black", label="touchdowns")
+    ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
+    ax.set_title(f"{args.planner} on the multibody robot, {where(args)}: {outcome}")
+    ax.figure.legend(loc="outside lower center", fontsize=8, ncols=4, frameon=False)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    ax.figure.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
+    if args.html:
+        print(f"replay: {write_robot_replay(log, terrain, args.html, title=f'plan_and_hop.py: {args.planner}')}")
     return cli.OK if result["success"] else cli.FAILED
 
 
@@ -109,7 +175,13 @@ def replay(result: dict, apex, terrain, params):
     return rollout(apex, terrain, params, leg_angles=angles, log=True).simulation
 
 
-def write_figure(sim, result, args):
+def where(args) -> str:
+    """'mixed terrain seed 3' or 'terrain file ground.csv'."""
+    return (f"{args.terrain} terrain seed {args.seed}" if isinstance(args.terrain, str)
+            else f"terrain file {args.terrain.path}")
+
+
+def write_figure(sim, result, terrain, args):
     import numpy as np
 
     from drakeslip.viz import new_axes, plot_terrain, plot_trajectory
@@ -118,9 +190,8 @@ def write_figure(sim, result, args):
         ax = plot_trajectory(sim)
         terrain = sim.terrain
     else:  # no foothold was commanded: the terrain alone
-        terrain = TERRAIN_FAMILIES[args.terrain](args.seed)
         ax = new_axes((12, 3.5))
-        plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
+        plot_terrain(ax, terrain, (args.start_x - 1.0, args.goal + 1.0))
     planned = np.array([x for p in result["plans"] for x in p["footholds"][:len(p.get("executed", []))]])
     if planned.size:
         ax.plot(planned, terrain.height_at(planned) + 0.04, "v", color="#2a7ab0", ms=6, mec="black",
@@ -128,8 +199,7 @@ def write_figure(sim, result, args):
     ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
     noise = "perfect robot" if args.noise.silent else f"noise {describe(args.noise)}"
-    ax.set_title(f"{args.planner} planner + controller on Drake ({noise}), {args.terrain} terrain seed {args.seed}: "
-                 f"{outcome}")
+    ax.set_title(f"{args.planner} planner + controller on Drake ({noise}), {where(args)}: {outcome}")
     ax.figure.legends.clear()
     ax.figure.legend(loc="outside lower center", fontsize=8, ncols=8, frameon=False)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -148,7 +218,7 @@ def write_html(sim, result, plans, args):
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
     write_replay(sim, args.html, planned_footholds=[x for plan, k in executed for x in plan.footholds[:k]],
                  predicted_apexes=[a for plan, k in executed for a in plan.apexes[:k]],
-                 title=f"plan_and_hop.py: {args.planner} on {args.terrain} terrain seed {args.seed}, {outcome}")
+                 title=f"plan_and_hop.py: {args.planner} on {where(args)}, {outcome}")
     print(f"replay: {args.html}")
 
 

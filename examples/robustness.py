@@ -10,8 +10,10 @@ plan's footholds through the controller, without replanning, for the plan's firs
 the fast backend; --drake K reruns the first K on Drake. The plan's own margins on Drake (spring travel left,
 friction to spare, distance of its footholds from edges) are printed first: they are what noise eats into.
 
---out writes the result as JSON (the rate, the failures, every draw's errors and outcome, and where the result
-came from); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome (PNG).
+--out writes the result as JSON (the rate, the failures, every draw's errors and outcome, where the result came
+from, and the plan's hopper); --hopper checks the plan against a hopper file or folder (a plan made for another
+hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome
+(PNG).
 
 Exit status: 0 when the draws ran, 2 for a usage or input error.
 """
@@ -28,6 +30,7 @@ from drakeslip.terrain import check_window
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
+    cli.add_hopper(ap, default="the plan file's")
     ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
     ap.add_argument("--map-filter", type=cli.positive_int, default=1,
@@ -39,10 +42,15 @@ def main(argv=None) -> int:
                     help="count a draw a success when it completes the plan's first HOPS hops (default: all of them)")
     ap.add_argument("--drake", type=cli.non_negative_int, default=0, metavar="K",
                     help="rerun the first K draws on Drake and report agreement")
+    ap.add_argument("--backend", choices=("fast", "multibody"), default="fast",
+                    help="what runs the draws: the fast step map, or the multibody robot (drakeslip/multibody: about "
+                         "a second per hop; --drake then reruns on the SLIP's Drake simulator)")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None, help="also write the result (JSON)")
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
                     help="also draw the draws by outcome in (apex error, leg-angle error) space (PNG)")
     args = ap.parse_args(argv)
+    if args.backend == "multibody" and args.drake:
+        ap.error("--drake compares fast-backend draws with Drake: use it with --backend fast")
     if args.drake > args.samples:
         ap.error(f"--drake {args.drake} is more than --samples {args.samples}")
     try:
@@ -50,6 +58,7 @@ def main(argv=None) -> int:
     except ValueError as error:
         ap.error(str(error))
 
+    from drakeslip.hopper_file import check_same_hopper, hopper_for
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
     from drakeslip.jobs.runner import write_json
@@ -58,6 +67,8 @@ def main(argv=None) -> int:
 
     try:
         record = load_plan(args.plan)
+        if args.hopper is not None:
+            check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
         if args.hops is not None and args.hops > len(record.footholds):
             raise ValueError(f"--hops {args.hops} is more than the plan's {len(record.footholds)} hops")
     except (OSError, ValueError) as error:
@@ -69,7 +80,7 @@ def main(argv=None) -> int:
         for name, margin in nominal.margins().items():
             print(f"  {name:<15} {margin.value:9.4f} (hop {margin.hop})")
     t0 = time.perf_counter()
-    result = success_probability(record, args.samples, args.noise, args.seed, hops=args.hops,
+    result = success_probability(record, args.samples, args.noise, args.seed, backend=args.backend, hops=args.hops,
                                  map_filter=args.map_filter)
     print(f"{time.perf_counter() - t0:.2f} s")
     print(result.format())
@@ -77,7 +88,13 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         confirmation = confirm_on_drake(result, args.drake)
         print(confirmation.format() + f" ({time.perf_counter() - t0:.1f} s)")
-    document = {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()}
+    document = {**result.to_dict(), "plan": str(args.plan),
+                "hopper": (record.hopper or hopper_for(record.params)).to_record(), "provenance": provenance()}
+    if args.backend == "multibody":   # the robot each draw ran: built around the draw's hopper
+        from drakeslip.multibody.robot import RobotParams
+        from planners.closed_loop import robot_record
+
+        document["robot"] = robot_record(RobotParams(slip=record.params))
     if args.drake:
         document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
     if args.out:

@@ -11,6 +11,8 @@ round r-1's model is fine-tuned on every round's data so far (--init). Every rou
 settings (2.5 cm bins, --min-steps 1, starts from x = -1 m, apex heights 0.55-1.1 m and speeds 0.4-3.2 m/s,
 friction 0.8) and its training the soft labels (--viable-weight 0.5, --own-inputs 0). The last round's model is
 copied to --out, and the SHA256SUMS manifest of --out's folder, if it has one, gets the file's new digest.
+--hopper trains the model for another hopper than the paper's: every round's data are its own (generate_dataset.py
+--hopper, on its friction); examples/train_hopper.py fine-tunes the committed model for one in a few minutes.
 
 Each step is a command of its own, printed before it runs (run by hand, the same commands give the same files).
 WORK/round{r}/ holds round r's dataset, WORK/round{r}.pt its model and WORK/round{r}-checkpoint.pt its training
@@ -25,10 +27,6 @@ error (reported before any work).
 from __future__ import annotations
 
 import json
-import os
-import shlex
-import signal
-import subprocess
 import sys
 import time
 from pathlib import Path
@@ -36,9 +34,9 @@ from pathlib import Path
 from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
+from drakeslip.jobs.steps import end_by_sigint, run_step, shown
 from planners.checkpoints import EXPERT_WEIGHTS
 
-EXAMPLES = Path(__file__).resolve().parent
 # the expert's dataset settings, the same in every round (see the module doc)
 EXPERT_DATA = ["--planner", "expert", "--subcells", "4", "--min-steps", "1", "--start-x", "-1", "--heights",
                "0.55,1.1", "--speeds", "0.4,3.2", "--friction", "0.8"]
@@ -66,6 +64,7 @@ def parser() -> cli.ArgumentParser:
                     help="chance a rollout hops to a random goal-reaching foothold, in round 0 and in DAgger rounds")
     ap.add_argument("--lr", type=cli.positive, nargs=2, default=(2e-3, 1e-3), metavar=("ROUND0", "LATER"),
                     help="peak learning rate of round 0 (a fresh model) and of the DAgger rounds (fine-tuning)")
+    cli.add_hopper(ap)
     ap.add_argument("--hidden", type=cli.positive_int, default=256, help="LSTM units per layer")
     ap.add_argument("--channels", type=cli.positive_int, default=32, help="CNN feature maps")
     ap.add_argument("--threads", type=cli.non_negative_int, default=0,
@@ -100,6 +99,8 @@ def round_commands(args, r: int, device: str) -> list[list[str]]:
     data = ["--jobs", str(args.jobs)] + (["--executor", "ray"] if args.executor == "ray" else []) + \
         (["--address", args.address] if args.address else [])
     explore = args.explore[0] if r == 0 else args.explore[1]
+    data += [] if args.hopper is None else ["--hopper", str(args.hopper.source), "--friction",
+                                            repr(args.hopper.params.friction)]
     generate = ["generate_dataset.py", *EXPERT_DATA, "--terrains", str(args.terrains[r]), "--apexes", str(args.apexes),
                 "--explore", str(explore), "--seed", str(args.seed + r), "--out", str(work / f"round{r}"), *data]
     if r > 0:
@@ -112,32 +113,6 @@ def round_commands(args, r: int, device: str) -> list[list[str]]:
         ["--init", str(work / f"round{r - 1}.pt")]
     quiet = ["--quiet"] if args.quiet else []
     return [generate + quiet, train + quiet]
-
-
-def shown(command: list[str]) -> str:
-    return "python3 " + " ".join(shlex.quote(a) for a in [f"examples/{command[0]}", *command[1:]])
-
-
-def run_step(command: list[str]) -> int:
-    """Run examples/COMMAND in a process of its own, printing it first and its time after; its exit status. On
-    Ctrl-C the step ends as its script does, saying in one line what it saved, and so does this process."""
-    print("$ " + shown(command), flush=True)
-    t0 = time.perf_counter()
-    step = subprocess.Popen([sys.executable, str(EXAMPLES / command[0]), *command[1:]])
-    try:
-        code = step.wait()
-    except KeyboardInterrupt:
-        step.send_signal(signal.SIGINT)  # a Ctrl-C reached it too; a SIGINT sent to this process alone is passed on
-        step.wait()
-        end_by_sigint()
-    print(f"  ({time.perf_counter() - t0:.0f} s, exit status {code})", flush=True)
-    return code
-
-
-def end_by_sigint() -> None:
-    """End as an interrupted program does (status 130 in a shell), with no line of this process's own."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-    os.kill(os.getpid(), signal.SIGINT)
 
 
 def main(argv=None) -> int:
@@ -157,7 +132,10 @@ def main(argv=None) -> int:
             print("\n".join(shown(command) for command in round_commands(args, r, device)))
         return cli.OK
     try:
-        check_settings(work, {k: getattr(args, k) for k in SETTINGS})
+        settings = {k: getattr(args, k) for k in SETTINGS}
+        if args.hopper is not None:   # the paper's work folders keep their settings as they were
+            settings["hopper"] = {"name": args.hopper.name, "sha256": args.hopper.sha256}
+        check_settings(work, settings)
     except (ValueError, OSError) as error:
         ap.error(str(error))
     cli.announce(argv)

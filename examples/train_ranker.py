@@ -18,6 +18,8 @@ it needs from this process and returns its states, which this process writes. Sh
 (DATA_DIR/round{r}-{family}-{seed}.npz) and each round's weights (DATA_DIR/round{r}.pt) are written atomically;
 rerunning the same command skips what is there, so a killed run resumes without losing work (DATA_DIR/config.json
 records the settings, and other settings are refused). The shards are the same whatever the executor and --jobs.
+--hopper (a hopper file or folder) trains the ranker for another hopper than the paper's: the cases are those of
+suites drawn for it (planners/formats/suite_draw.py); give it --model, the footstep model trained for it.
 """
 from __future__ import annotations
 
@@ -25,12 +27,14 @@ import json
 import os
 import sys
 import time
+from dataclasses import asdict
 from pathlib import Path
 
 from drakeslip.jobs import cli
 from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
+from drakeslip.units import PAPER
 from planners.checkpoints import EXPERT_WEIGHTS
 from planners.learned.training.config import RankerTrainConfig
 
@@ -83,6 +87,7 @@ def parser() -> cli.ArgumentParser:
                     help="shards and each round's weights")
     ap.add_argument("--model", type=cli.input_file, default=str(EXPERT_WEIGHTS),
                     help="the footstep model whose footholds are ranked")
+    cli.add_hopper(ap)
     ap.add_argument("--families", type=cli.names, default="ditch,step,mixed",
                     help="terrain families, comma-separated")
     ap.add_argument("--rounds", type=cli.positive_int, default=4, help="DAgger rounds")
@@ -120,6 +125,10 @@ def main(argv=None):
     # as the folder records them: the paths and the family list as typed
     settings = {k: getattr(args, k) for k in SETTINGS} | {"model": str(args.model),
                                                           "families": ",".join(args.families)}
+    hopper = None   # the paper's: its folders' settings stay as they were
+    if args.hopper is not None and args.hopper.params.with_friction(PAPER.friction) != PAPER:
+        hopper = asdict(args.hopper.params)
+        settings["hopper"] = hopper
     try:
         check_config(data, settings)
     except SystemExit as refused:  # a usage error: one line, exit status 2 (the exception keeps its message)
@@ -147,7 +156,7 @@ def main(argv=None):
                 name = f"round{r}-{family}-{seed}.npz"
                 shards.append(data / name)
                 tasks.append((name, (family, seed, min(args.shard_terrains, args.terrains - start), model, learner,
-                                     args.record_k, args.top_k, explore)))
+                                     args.record_k, args.top_k, explore, hopper)))
         todo = sum(store.get(name) is None for name, _ in tasks)
         t0, states = time.time(), 0
         with tqdm(total=todo, unit="shard", desc=f"round {r}", disable=args.quiet) as bar:

@@ -63,6 +63,7 @@ def seed_labels(text: str) -> list[str]:
 def parser() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", required=True, type=cli.input_file, help="suite JSON file (format drakeslip-suite/1)")
+    cli.add_hopper(ap, default="the suite's; another is refused in one line")
     ap.add_argument("--cases", type=cli.positive_int, default=None,
                     help="how many of the selected cases (None: all)")
     ap.add_argument("--every", type=cli.positive_int, default=1,
@@ -162,9 +163,14 @@ def main(argv=None) -> int:
         refuse(error)
     from planners.formats.suite import load_suite
 
+    from planners.formats.suite_draw import hopper_for_suite
+    from planners.registry import hopper_options
+
     try:
         suite = load_suite(args.suite)
-    except (OSError, ValueError) as error:  # an unreadable or malformed suite file
+        hopper = hopper_for_suite(suite, args.hopper)   # the suite's hopper; a folder's weights seed the solves
+        options = {s: o for s in seeds if (o := hopper_options(s, options.get(s), hopper)) is not None}
+    except (OSError, ValueError) as error:  # an unreadable or malformed suite file, another hopper's suite
         refuse(error)
     # the seeds' planners are built (and kept for the solves in this process): bad options or weights stop here
     from planners.trajopt.seeds import check_seed
@@ -180,16 +186,17 @@ def main(argv=None) -> int:
 
     from tqdm import tqdm
 
-    from drakeslip import SlipParams
     from drakeslip.jobs.runner import JsonLinesStore, remove, run, write_json
+    from drakeslip.units import units_of
     from planners.trajopt.planner import make_problem
     from planners.trajopt.solve import optimize
     from verification.provenance import code_version, provenance
 
     cases = list(suite.cases[::args.every])[:args.cases]
-    params = SlipParams(friction=suite.friction)
+    params = hopper.params.with_friction(suite.friction)
     code = code_version()   # the version the keys hold is the one the results file names
-    setup = [FORMAT, asdict(config), code, suite.goal_x, suite.friction]
+    # the paper's hopper is left out of the key, so its cached solves stay valid
+    setup = [FORMAT, asdict(config), code, suite.goal_x, suite.friction, *([asdict(params)] if suite.hopper else [])]
 
     def key(seed, case) -> str:
         return hashlib.sha256(json.dumps([setup, seed, options.get(seed, {}), files[seed], case.id,
@@ -199,7 +206,9 @@ def main(argv=None) -> int:
     store_path = Path(str(args.out) + ".cases.jsonl")
     if args.no_resume:
         remove(store_path)
-    problems = [make_problem(case.apex, case.terrain.perceived(case.apex.x), suite.goal_x, params) for case in cases]
+    window = units_of(params).window
+    problems = [make_problem(case.apex, case.terrain.perceived(case.apex.x, *window), suite.goal_x, params)
+                for case in cases]
     pairs = {key(s, case): (s, i) for i, case in enumerate(cases) for s in seeds}  # case ids are unique
     # case-major: every seed sees the same cases at any point of a partial run
     tasks = [(k, (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
@@ -212,7 +221,8 @@ def main(argv=None) -> int:
             bar.update(1)
             bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
     done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
-    results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "cases_n": len(cases),
+    results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "hopper": hopper.to_record(),
+               "cases_n": len(cases),
                "every": args.every, "config": asdict(config), "options": options, "weights": files,
                "provenance": provenance(code), "seeds": {s: summarize(done[s]) for s in seeds}}
     write_json(args.out, results)

@@ -9,7 +9,9 @@ first place the run left the plan (a failure, a missed foothold, a missed apex, 
 the hop, planned against actual, the state and hybrid state there, and the trace up to it.
 
 --plot draws the Drake run over the terrain with the planned and actual footholds and the counterexample marked
-(PNG); --html writes a Meshcat replay of it (self-contained HTML).
+(PNG); --html writes a Meshcat replay of it (self-contained HTML). --hopper checks the plan against a hopper file or
+folder: a plan made for another hopper is refused in one line. --terrain checks it on the ground of a terrain file
+(a measured height profile, drakeslip/terrain_file.py) instead of the plan file's.
 
 Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree, or one
 lies outside the physical bounds of drakeslip/bounds.py, such as a stiffness of 1e308: see
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import math
 import sys
+from dataclasses import replace
 
 from drakeslip.jobs import cli
 from verification.plan_check_options import MODES, TOLERANCE
@@ -30,6 +33,9 @@ def main(argv=None) -> int:
     ap.add_argument("--mode", choices=MODES, default="auto",
                     help="angles: the plan's leg angles open loop; footholds: its footholds through the controller; "
                          "auto: angles when the plan has them all")
+    cli.add_hopper(ap, default="the plan file's")
+    ap.add_argument("--terrain", type=cli.terrain_or_family(), default=None,
+                    help="check the plan on this terrain file's ground instead of the plan file's")
     ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE,
                     help="how far [m, m/s] a touchdown or apex may be from the plan's")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None,
@@ -38,8 +44,14 @@ def main(argv=None) -> int:
                     help="also draw the Drake run, planned against actual, the counterexample marked (PNG)")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the Drake run (self-contained HTML)")
+    ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
+                    help="what executes the plan: the SLIP on Drake, or the multibody robot (drakeslip/multibody) "
+                         "aiming at the plan's footholds (--mode is then footholds; --plot and --html draw the SLIP)")
     args = ap.parse_args(argv)
+    if args.backend == "multibody" and (args.plot or args.html):
+        ap.error("--plot and --html draw the SLIP's run: use them with --backend drake")
 
+    from drakeslip.hopper_file import check_same_hopper, hopper_for
     from drakeslip.jobs.runner import write_json
     from planners.formats.plan import load_plan
     from verification.plan_check import check_plan
@@ -47,16 +59,30 @@ def main(argv=None) -> int:
 
     try:
         record = load_plan(args.plan)
+        if args.hopper is not None:
+            check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
+        if args.terrain is not None:
+            record = replace(record, terrain=args.terrain.terrain)
         if args.mode == "angles" and not all(abs(a) < 1.5707963 for a in record.leg_angles):
             raise ValueError(f"--mode angles needs every leg angle; {args.plan} has NaN ones: use --mode footholds")
     except (OSError, ValueError) as error:
         ap.error(str(error))
     print(f"{record.planner} plan, {len(record.footholds)} footholds to target x={record.target_x:g}, start apex "
           f"({record.apex.x:g}, {record.apex.z:g}, {record.apex.xdot:g})")
+    if args.backend == "multibody":
+        from verification.robot_check import check_plan_on_robot
+
+        result = check_plan_on_robot(record, args.tolerance)
+        print(result.format())
+        if args.out:
+            write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
+        return cli.OK if result.ok else cli.FAILED
     result = check_plan(record, args.mode, args.tolerance)
     print(result.format())
     if args.out:
-        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
+        hopper = (record.hopper or hopper_for(record.params)).to_record()
+        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "hopper": hopper,
+                              "provenance": provenance()})
     title = f"verify_plan.py: {record.planner} plan {args.plan.name}"
     if args.plot:
         from verification.plots import plan_check_figure

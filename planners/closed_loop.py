@@ -31,11 +31,15 @@ class ClosedLoopConfig:
     """``executed_per_plan`` footholds of each plan are executed before replanning; ``backend="drake"`` executes on
     the Drake hybrid simulator (the protocol), ``"fast"`` on the fast step map (quick diagnosis: is a failure the
     planner's or the model mismatch's?); ``refine`` switches the controller's Newton polish (False: the MLP alone,
-    as in the paper, an ablation); ``noise`` the noise profile and ``seed`` the seed of its draws; ``map_filter``
+    as in the paper, an ablation); ``noise`` the noise profile (its sizes the paper's hopper's, drawn in the case's
+    hopper's units: ``NoiseProfile.for_hopper``) and ``seed`` the seed of its draws; ``map_filter``
     the cells of the median filter the robot runs on its sensed height map before the planner and the controller
     use it (``Terrain.denoised`` with the profile's height error; 1: the map as sensed). Without the filter a
     1 cm error per 10 cm cell makes one cell edge in six look like a step of more than 2 cm, which the planners
-    keep their footholds clear of."""
+    keep their footholds clear of. ``robot``: on the multibody backend, the robot's ``RobotParams`` (None: the
+    default robot with the case's friction), recorded with the results; ``template``: the SLIP the planners plan
+    for there (None: the hopper's own parameters), e.g. the one fitted to the robot (``drakeslip.multibody.fit``),
+    with the case's friction."""
 
     executed_per_plan: int = EXECUTED_PER_PLAN
     max_hops: int = MAX_HOPS
@@ -44,10 +48,17 @@ class ClosedLoopConfig:
     noise: NoiseProfile = field(default_factory=NoiseProfile)
     seed: int = 0
     map_filter: int = 1
+    robot: object = None
+    template: SlipParams | None = None
 
     def to_dict(self) -> dict:
-        return {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
-                "refine": self.refine, "noise": self.noise.to_dict(), "seed": self.seed, "map_filter": self.map_filter}
+        record = {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
+                  "refine": self.refine, "noise": self.noise.to_dict(), "seed": self.seed,
+                  "map_filter": self.map_filter}
+        if self.backend == "multibody":
+            record["robot"] = robot_record(self.robot)
+            record["template"] = None if self.template is None else asdict(self.template)
+        return record
 
     def __post_init__(self):
         if self.backend not in BACKENDS:
@@ -59,14 +70,25 @@ class ClosedLoopConfig:
         check_window(self.map_filter, "map_filter")
 
 
+def robot_record(robot) -> dict:
+    """The multibody robot a run executes on, as its results record it: the model file and every parameter."""
+    from drakeslip.multibody.robot import SDF_FILE, RobotParams
+
+    return {"model": f"drakeslip/multibody/{SDF_FILE}", "params": (robot or RobotParams()).to_dict()}
+
+
 def run_case(planner, controller, case, goal_x: float, params: SlipParams,
              config: ClosedLoopConfig = ClosedLoopConfig()) -> dict:
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the receding-horizon loop; returns
     {"id", "success", "failure", "final_x", "plans"}, one record per planning call in "plans" (with the footholds
     and leg angles executed, and the apex the planner was told in "seen_apex" under noise; "executed_params" is
-    then the hopper that ran)."""
+    then the hopper that ran). On the ``"multibody"`` backend the case runs as one closed-loop Diagram
+    (``planners.drake_system.run_closed_loop``: the planner system replans at every ``executed_per_plan``-th
+    apex of the robot)."""
+    if config.backend == "multibody":
+        return _run_on_robot(planner, case, goal_x, params, config)
     apex, terrain = ApexState(*map(float, case.apex)), case.terrain
-    noise, rng = config.noise, np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
+    noise, rng = config.noise.for_hopper(params), np.random.default_rng([config.seed, zlib.crc32(case.id.encode())])
     # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
     aim_x = goal_x + GOAL_SIGMAS * noise.apex[0]
     executed = params if noise.silent else noise.executed_params(params, rng)
@@ -121,4 +143,22 @@ def run_case(planner, controller, case, goal_x: float, params: SlipParams,
     result = {"id": case.id, "success": failure is None, "failure": failure, "final_x": final_x, "plans": plans}
     if not noise.silent:
         result["executed_params"] = asdict(executed)   # the mismatched hopper this case ran
+    return result
+
+
+def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
+    from planners.drake_system import run_closed_loop
+
+    # a template fitted to the default robot (built around the paper's hopper) is its template only
+    fitted_robot = params.with_friction(SlipParams().friction) == SlipParams() and config.robot is None
+    template = config.template.with_friction(params.friction) if config.template and fitted_robot else params
+    robot = config.robot
+    if robot is None:
+        from drakeslip.multibody.robot import RobotParams
+
+        robot = RobotParams(slip=params)
+    result = run_closed_loop(planner, case, goal_x, template, robot, noise=config.noise, seed=config.seed,
+                             map_filter=config.map_filter, max_hops=config.max_hops,
+                             replan_every=config.executed_per_plan)
+    result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
     return result

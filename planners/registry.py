@@ -11,10 +11,11 @@ from __future__ import annotations
 
 import importlib
 import inspect
+from pathlib import Path
 
 from drakeslip.jobs.files import parse_json
 
-from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS
+from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, WEIGHTS_DIR
 
 _PLANNERS = {
     "heuristic": "planners.search.heuristic:HeuristicPlanner",
@@ -117,6 +118,30 @@ def make(label: str, **options):
 def files_read(label: str, options: dict | None = None) -> dict:
     """The files (models, rankers) the planner ``label`` reads when built with ``options``, by option name."""
     return planner_class(planner_name(check_label(label))).files_read(options_for(label, options))
+
+
+def hopper_options(label: str, options: dict | None, hopper) -> dict | None:
+    """``options`` for ``label`` on ``hopper`` (a ``drakeslip.hopper_file.Hopper``): every committed weights file
+    the planner reads (``files_read``, from planners/weights/) that the hopper's folder also holds, by name, is
+    read from the folder instead (examples/train_hopper.py writes them; loading checks the folder's manifest).
+    ``options`` itself for a hopper without a folder, the paper's included, or when the folder holds none."""
+    if hopper is None or hopper.folder is None:
+        return options
+    swapped = dict(options or {})
+    for option, path in files_read(label, options).items():
+        own = hopper.weights(Path(path).name) if Path(path).resolve().parent == WEIGHTS_DIR.resolve() else None
+        if own is None:
+            continue
+        if option.startswith("seed."):   # a trajectory optimizer's seed planner's file (TrajoptPlanner.files_read)
+            swapped["seed_options"] = {**swapped.get("seed_options", {}), option[len("seed."):]: str(own)}
+        else:
+            swapped[option] = str(own)
+    return swapped if swapped != dict(options or {}) else options
+
+
+def hopper_specs(specs: dict, hopper) -> dict:
+    """``specs`` (label -> options) with each label's options for ``hopper`` (``hopper_options``)."""
+    return {label: hopper_options(label, options, hopper) for label, options in specs.items()}
 
 
 def make_planners(specs: dict, controller=None) -> dict:

@@ -10,6 +10,7 @@ import drakeslip as ds
 import planners
 from drakeslip.controller import StepLengthController
 from drakeslip.noise import PROFILES, NoiseProfile, profile
+from drakeslip.units import units_of
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import make_suite
@@ -53,6 +54,23 @@ def test_draws_follow_the_profile():
     solid = terrain.heights > terrain.ditch_height
     assert np.all(seen.heights[~solid] == terrain.heights[~solid])   # ditches stay ditches
     assert 0.005 < np.std(seen.heights[solid] - terrain.heights[solid]) < 0.015 and seen.x0 != terrain.x0
+
+
+def test_a_profile_is_the_paper_hoppers_in_each_hoppers_units():
+    realistic = PROFILES["realistic"]
+    assert realistic.for_hopper(ds.SlipParams()) is realistic
+    small = ds.SlipParams(mass=3.0, leg_length=0.3, stiffness=981.0, friction=0.6)
+    speed = units_of(small).speed
+    noise = realistic.for_hopper(small)
+    assert noise.apex == pytest.approx((0.003, 0.003, 0.02 * speed)) and speed == pytest.approx(0.7746, abs=1e-4)
+    assert (noise.heights, noise.edges, noise.friction) == pytest.approx((0.006, 0.006, 0.0375))
+    assert (noise.leg_angle, noise.stiffness, noise.mass) == (0.005, 0.02, 0.02)   # dimensionless: kept
+    # the robust particles of that hopper sit at the corners of its noise, with its friction loss
+    terrain = ds.Terrain.flat(cell=0.06, x0=-1.8, length=6.6)
+    particles = Robustness().particles(ds.ApexState(0.0, 0.33, 0.6), terrain, small)
+    assert np.abs(particles.apex_errors).max(axis=0) == pytest.approx((0.006, 0.006, 0.04 * speed))
+    assert np.all(particles.worlds.params[:, 4] == pytest.approx(0.6 - 0.0375))
+    assert np.abs(particles.worlds.x0 - terrain.x0).max() == pytest.approx(0.012)
 
 
 @pytest.fixture(scope="module")

@@ -3,6 +3,7 @@ saved as a plan file would save it and checked on Drake (``plan_check``): certif
 from __future__ import annotations
 
 from drakeslip import SlipParams, StepLengthController
+from drakeslip.hopper_file import hopper_for, params_from_fields
 from drakeslip.units import units_of
 
 from planners.formats.plan import PlanRecord
@@ -19,19 +20,22 @@ def prepare(specs: dict) -> None:
     _WORKER.update(controller=controller, planners=make_planners(specs, controller))
 
 
-def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float) -> dict:
+def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float,
+                 hopper: dict | None = None) -> dict:
     """{"label", "id", "verdict", "reason", "hops", "kind", "hop"} for the first plan of ``label`` on ``case`` (a
-    suite's case entry): "certified", "counterexample" (with its reason), "no plan", or "malformed" (a plan the
-    plan-file format refuses: its fields disagree, with the reason)."""
+    suite's case entry) for the hopper whose SlipParams fields are ``hopper`` (None: the paper's) on ground of
+    ``friction``: "certified", "counterexample" (with its reason), "no plan", or "malformed" (a plan the plan-file
+    format refuses: its fields disagree, with the reason)."""
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "case", "goal_x": goal_x, "friction": friction,
                              "cases": [case]})
-    c, params = suite.cases[0], SlipParams(friction=friction)
+    body = SlipParams() if hopper is None else params_from_fields(hopper, "the task's hopper")
+    c, params = suite.cases[0], body.with_friction(friction)
     plan = _WORKER["planners"][label].plan(c.apex, c.terrain.perceived(c.apex.x, *units_of(params).window), goal_x, params)
     record = {"label": label, "id": c.id, "kind": None, "hop": None}
     if not plan.success:
         return {**record, "verdict": "no plan", "reason": plan.message, "hops": 0}
     try:
-        written = PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params)
+        written = PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params, hopper_for(params))
     except ValueError as malformed:
         return {**record, "verdict": "malformed", "reason": str(malformed), "hops": len(plan.footholds)}
     result = check_plan(written, mode, tolerance, controller=_WORKER["controller"])

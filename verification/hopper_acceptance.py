@@ -1,6 +1,6 @@
 """Planning for any hopper, measured: hoppers drawn at random (seeded) from the range the toolkit is for, suites
 drawn for each (``planners.formats.suite_draw.draw_suite``), the planners evaluated on them in the receding-horizon
-loop (``verification.evaluation``) and held to the bars of issue 35:
+loop (``verification.evaluation``) and held to three bars:
 
 * ``step`` crosses at least 95 % of the ditch cases without noise;
 * ``step@robust`` at least 90 % of them under ``realistic`` noise (replanning at every apex, as its preset runs);
@@ -21,7 +21,7 @@ from drakeslip.noise import PROFILES
 
 from planners.closed_loop import ClosedLoopConfig
 from planners.formats.suite_draw import draw_suite
-from planners.registry import loop_settings
+from planners.registry import hopper_specs, loop_settings
 from verification.evaluation import evaluate
 
 RANGE = {"mass": (3.0, 30.0), "leg_length": (0.3, 1.2), "stiffness": (10.0, 40.0), "friction": (0.6, 1.0)}
@@ -59,11 +59,12 @@ def describe(h: Hopper) -> str:
 def evaluate_hopper(h: Hopper, family: str, seed: int, labels, every: int = 1, backend: str = "fast",
                     executor=None, cache_path=None, progress: bool = False) -> dict:
     """``labels`` (of RUNS) evaluated on the ``family`` suite drawn for ``h`` from terrain ``seed``, every
-    ``every``-th case, each label with its RUNS noise and its preset's closed loop, executed on ``backend``."""
+    ``every``-th case, each label with its RUNS noise and its preset's closed loop, executed on ``backend``; the
+    planners read the weights of ``h``'s hopper folder, if it has one (``planners.registry.hopper_options``)."""
     suite = draw_suite(family, seed, h, name=f"{family}-{seed}-{h.name}")
     configs = {label: ClosedLoopConfig(backend=backend, noise=PROFILES[RUNS[label][0]], **loop_settings(label))
                for label in labels}
-    return evaluate(suite, {label: None for label in labels}, executor=executor, cache_path=cache_path,
+    return evaluate(suite, hopper_specs({label: None for label in labels}, h), executor=executor, cache_path=cache_path,
                     config=configs, progress=progress, every=every)
 
 

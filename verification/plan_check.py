@@ -28,6 +28,7 @@ import numpy as np
 from drakeslip import FailureMode, StepLengthController
 from drakeslip import dynamics as dyn
 from drakeslip.hopper import HybridState, Mode
+from drakeslip.hopper_file import Hopper, check_same_hopper
 from drakeslip.jobs.runner import finite
 from drakeslip.rollout import rollout
 from drakeslip.simulation import IntegratorConfig, SimulationResult
@@ -194,9 +195,13 @@ class Counterexample:
 
 def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERANCE,
                controller: StepLengthController | None = None,
-               integrator: IntegratorConfig | None = None) -> Certificate | Counterexample:
+               integrator: IntegratorConfig | None = None,
+               hopper: Hopper | None = None) -> Certificate | Counterexample:
     """Simulate ``record`` on Drake (see the module doc for the modes and what a certificate means) and certify it,
-    or return the first place the run left it."""
+    or return the first place the run left it. With ``hopper``, a plan made for another hopper (its params' body
+    differs) is refused: ValueError in one line, before any simulation."""
+    if hopper is not None:
+        check_same_hopper(hopper, record.params, "the plan")
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
     if not (isinstance(tolerance, (int, float)) and math.isfinite(tolerance) and tolerance > 0):

@@ -125,9 +125,11 @@ class DrakeConfirmation:
 
 
 def draw_robots(record: PlanRecord, n: int, noise: NoiseProfile, seed: int, hops: int, map_filter: int = 1) -> list:
-    """``n`` robots drawn from ``noise`` for the plan's first ``hops`` hops (seeded); each filters the terrain map it
-    senses over ``map_filter`` cells (``Terrain.denoised``, as the closed loop's robot does; 1: as sensed)."""
+    """``n`` robots drawn from ``noise`` (in the plan's hopper's units, ``NoiseProfile.for_hopper``) for the plan's
+    first ``hops`` hops (seeded); each filters the terrain map it senses over ``map_filter`` cells
+    (``Terrain.denoised``, as the closed loop's robot does; 1: as sensed)."""
     rng = np.random.default_rng(seed)
+    noise = noise.for_hopper(record.params)
     out = []
     for _ in range(n):
         errors = noise.apex_errors(rng, hops)

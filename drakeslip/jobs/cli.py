@@ -14,6 +14,7 @@ import math
 import os
 import shlex
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 
 from drakeslip.bounds import Bound
@@ -178,6 +179,44 @@ def check_writable_folder(text: str, folders, verb: str) -> None:
             if not os.access(folder, os.W_OK | os.X_OK):
                 raise argparse.ArgumentTypeError(f"cannot {verb} {text!r}: {str(folder)!r} is not writable")
             return
+
+
+def add_hopper(ap: argparse.ArgumentParser, default: str = "the paper's") -> None:
+    """``--hopper``: a hopper file, a hopper folder or a packaged hopper's name, read up front
+    (``drakeslip.hopper_file.hopper_argument``: a bad one is one line, exit status 2); None when not given."""
+    from drakeslip.hopper_file import hopper_argument, packaged_hoppers
+
+    ap.add_argument("--hopper", type=hopper_argument, default=None,
+                    help="the hopper: a hopper file (JSON or TOML: mass, leg_length, stiffness, ...; "
+                         "drakeslip/hopper_file.py), a hopper folder (examples/train_hopper.py: the file and the "
+                         f"weights trained for it), or a packaged hopper ({', '.join(packaged_hoppers())}) "
+                         f"(default: {default})")
+
+
+@dataclass(frozen=True)
+class TerrainFile:
+    """A terrain read from a file (``terrain_or_family``): its path and its Terrain."""
+
+    path: Path
+    terrain: object
+
+
+def terrain_or_family(*families: str):
+    """An argument type: one of ``families`` (returned as the name), or a terrain file (a height profile or
+    heights per cell, ``drakeslip.terrain_file``; returned as a TerrainFile); a malformed file is one line naming
+    its row."""
+    def parse(text: str):
+        from drakeslip.terrain_file import terrain_argument
+
+        if text in families:
+            return text
+        if not Path(text).is_file():
+            if not families:
+                raise argparse.ArgumentTypeError(f"no such terrain file: {text!r}")
+            raise argparse.ArgumentTypeError(f"{text!r} is neither a terrain family ({', '.join(families)}) nor a "
+                                             f"terrain file")
+        return TerrainFile(Path(text), terrain_argument(text))
+    return parse
 
 
 def add_parallel(ap: argparse.ArgumentParser, jobs: int = 1) -> None:

@@ -2,8 +2,9 @@
 stress-tested later without the planner, the suite or the random terrain generator that produced it.
 
 A file holds everything the plan's execution depends on: the initial apex, the whole terrain (cell heights,
-not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper's
-parameters, the goal, and the plan itself: footholds, leg angles and predicted apexes, and ``target_x``, the x its
+not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper (its
+parameters, with the ground's friction, and ``"hopper"``, the record ``Hopper.to_record`` of the hopper the plan
+was made for: its name, parameters and hopper file's digest), the goal, and the plan itself: footholds, leg angles and predicted apexes, and ``target_x``, the x its
 last foothold reaches by the plan's own account: the planner's target when the footholds pass it, else the last
 foothold (a plan that stops where the robot's view ends, or plans one step ahead). A planner that does not
 predict angles or apexes (``lstm`` gives only the first angle) leaves NaN there, stored as ``null``.
@@ -12,8 +13,9 @@ A file whose fields disagree with each other, or hold a value outside its physic
 is malformed (ValueError naming the field): lengths that differ, a foothold two leg reaches or more behind the one
 before it (2 L0 sin(atan mu): the body moves forward, but a slow gait may step back by less), predicted apexes
 whose x does not increase, a start or predicted apex not above the terrain, a start inside a ditch, a leg angle
-outside (-pi/2, pi/2), a predicted apex given in part. Version 1 files are read too (their ``target_x`` is the
-planner's target).
+outside (-pi/2, pi/2), a predicted apex given in part. A ``"hopper"`` record whose body (every parameter but the
+friction) is not ``params``' is malformed too. Version 1 files are read too (their ``target_x`` is the planner's
+target), as are files without a hopper record (their hopper is ``params``').
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
+from drakeslip.hopper_file import Hopper, check_same_hopper, hopper_for, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, POSITION, TERRAIN_START
 from drakeslip.params import check_number
@@ -40,7 +43,8 @@ READ_FORMATS = ("drakeslip-plan/1", PLAN_FORMAT)
 @dataclass(frozen=True)
 class PlanRecord:
     """One plan with its problem. ``leg_angles`` (N,) and ``apexes`` (N, 3) may hold NaN where the planner
-    made no prediction; ``footholds`` (N,) are always finite."""
+    made no prediction; ``footholds`` (N,) are always finite. ``hopper``: the hopper the plan was made for (None:
+    the one ``params`` describes)."""
 
     planner: str
     apex: ApexState
@@ -51,8 +55,11 @@ class PlanRecord:
     footholds: np.ndarray
     leg_angles: np.ndarray
     apexes: np.ndarray
+    hopper: Hopper | None = None
 
     def __post_init__(self):
+        if self.hopper is not None:
+            check_same_hopper(self.hopper, self.params, "the plan's params")
         n = self.footholds.shape
         if len(n) != 1 or n[0] == 0 or not np.all(np.isfinite(self.footholds)):
             raise ValueError(f"a plan needs a non-empty list of finite footholds, got {self.footholds!r}")
@@ -90,22 +97,26 @@ class PlanRecord:
                 raise ValueError(f"apexes[{i}] = ({x:g}, {z:g}) is not above the terrain")
 
     @classmethod
-    def from_plan(cls, plan: Plan, apex, terrain, goal_x: float, params: SlipParams) -> "PlanRecord":
+    def from_plan(cls, plan: Plan, apex, terrain, goal_x: float, params: SlipParams,
+                  hopper: Hopper | None = None) -> "PlanRecord":
         """``terrain`` is a Terrain, its ``to_dict()`` form, or a generator spec ``{"family", "seed"}``. Pass the
-        whole terrain, not the perception window the planner saw, so the check covers the real ground."""
+        whole terrain, not the perception window the planner saw, so the check covers the real ground. ``hopper``
+        (default: ``hopper_for(params)``, the paper's or one named 'custom') is recorded with the plan."""
         if not plan.success:
             raise ValueError(f"planner {plan.planner!r} found no plan to save: {plan.message}")
         reaches = min(float(plan.target_x), float(plan.footholds[-1]))
         return cls(plan.planner, as_apex(apex), _terrain(terrain), params,
                    float(goal_x), reaches, np.array(plan.footholds, dtype=float),
-                   np.array(plan.leg_angles, dtype=float), np.array(plan.apexes, dtype=float).reshape(-1, 3))
+                   np.array(plan.leg_angles, dtype=float), np.array(plan.apexes, dtype=float).reshape(-1, 3),
+                   hopper or hopper_for(params))
 
     def to_dict(self) -> dict:
         return {"format": PLAN_FORMAT, "planner": self.planner, "apex": self.apex._asdict(),
                 "terrain": {**self.terrain.to_dict(), "ditch_height": self.terrain.ditch_height},
                 "params": asdict(self.params), "goal_x": self.goal_x, "target_x": self.target_x,
                 "footholds": self.footholds.tolist(), "leg_angles": _nulls(self.leg_angles),
-                "apexes": _nulls(self.apexes)}
+                "apexes": _nulls(self.apexes),
+                **({"hopper": self.hopper.to_record()} if self.hopper is not None else {})}
 
     @classmethod
     def from_dict(cls, d, source: str = "plan") -> "PlanRecord":
@@ -148,9 +159,10 @@ class PlanRecord:
                            for j, (v, bound) in enumerate(zip(row, APEX_BOUNDS))])
         goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
         target_x = check_number(required_field(d, "target_x", source), f"{source}: target_x", bound=POSITION)
+        hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
         try:
             return cls(planner, apex, terrain, params, goal_x, target_x, np.array(footholds), np.array(angles),
-                       np.array(apexes).reshape(n, 3))
+                       np.array(apexes).reshape(n, 3), hopper)
         except ValueError as exc:
             raise ValueError(f"{source}: {exc}") from exc
 
@@ -160,9 +172,11 @@ class PlanRecord:
             json.dump(self.to_dict(), f, indent=1, allow_nan=False)
 
 
-def save_plan(path, plan: Plan, apex, terrain, goal_x: float, params: SlipParams) -> PlanRecord:
-    """Write ``plan`` (a planner's result for this apex, terrain, goal and parameters) to ``path``."""
-    record = PlanRecord.from_plan(plan, apex, terrain, goal_x, params)
+def save_plan(path, plan: Plan, apex, terrain, goal_x: float, params: SlipParams,
+              hopper: Hopper | None = None) -> PlanRecord:
+    """Write ``plan`` (a planner's result for this apex, terrain, goal and parameters, made for ``hopper``: see
+    ``PlanRecord.from_plan``) to ``path``."""
+    record = PlanRecord.from_plan(plan, apex, terrain, goal_x, params, hopper)
     record.save(path)
     return record
 

@@ -41,7 +41,7 @@ import functools
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.hopper_file import Hopper, paper_hopper
+from drakeslip.hopper_file import Hopper, check_same_hopper, paper_hopper
 from drakeslip.params import check_number
 from drakeslip.terrain import DITCH_WIDTH, TERRAIN_FAMILIES
 from drakeslip.terrain_file import gaps_of, load_terrain, terrain_with_gaps
@@ -52,6 +52,9 @@ from planners.formats.suite import (PAPER_GOAL_X, PAPER_HEIGHTS, PAPER_SPEEDS, P
 PROFILE_SUFFIXES = (".csv", ".txt")   # the files of a folder of profiles that are read
 STANDING_HEIGHT = 1.05   # [leg lengths] the lowest start apex above the ground a drawn suite gives
 STRIDE_ANGLES = 41       # leg angles across the friction cone tried at each hop of ``stride``
+# examples/plan_and_hop.py's case for the paper's hopper (``one_case``): start speed [m/s], height above the
+# ground [m], and the course from the start to the goal [m]
+DEMO_SPEED, DEMO_HEIGHT, DEMO_COURSE = 2.0, 0.9, 10.0
 
 
 @dataclass(frozen=True)
@@ -235,3 +238,67 @@ def suite_for(hopper: Hopper, name: str, goal_x: float, friction: float | None, 
 def suite_hopper(suite: Suite) -> Hopper:
     """The hopper a suite is for: its recorded one, or the paper's."""
     return suite.hopper or paper_hopper()
+
+
+def hopper_for_suite(suite: Suite, hopper: Hopper | None = None) -> Hopper:
+    """The hopper to run ``suite``'s cases with: ``hopper`` (e.g. a hopper folder, whose weights planners then
+    read) when it is the one the suite was drawn for (the same body: ``check_same_hopper``), the suite's own when
+    ``hopper`` is None; another hopper is refused: ValueError in one line."""
+    drawn = suite_hopper(suite)
+    if hopper is None:
+        return drawn
+    try:
+        check_same_hopper(hopper, drawn.params, f"suite {suite.name!r}")
+    except ValueError as error:
+        raise ValueError(f"{error}; draw a suite for it with examples/make_suites.py --hopper") from None
+    return hopper
+
+
+def one_case(terrain, seed: int = 0, hopper: Hopper | None = None, speed: float | None = None,
+             height: float | None = None, goal_x: float | None = None, start_x: float | None = None) -> Suite:
+    """A suite of one case for ``hopper`` (default: the paper's), as examples/plan_and_hop.py runs it: on the draw
+    from ``seed`` of the family ``terrain`` names, made the hopper's as ``draw_suite`` makes it (``hopper_terrain``),
+    or on ``terrain`` itself (a Terrain, e.g. from a terrain file). The start apex at ``start_x`` [m], ``speed``
+    [m/s] forward and ``height`` [m] above the ground there, and the goal at ``goal_x`` [m]: each, when given, as
+    given. Left out: the start at x = 0 (on a Terrain that has no solid ground there, one leg length past the start
+    of its first solid stretch), the paper's demo start (2 m/s, 0.9 m) and course (10 m from the start) made the
+    hopper's (``suite_scales``), the goal on a Terrain at most up to one leg length before its end. For the paper's
+    hopper the defaults are exactly the paper's numbers and a family's terrain is its generator's."""
+    hopper = hopper or paper_hopper()
+    scales = suite_scales(hopper.params, (DEMO_HEIGHT,), (DEMO_SPEED,))
+    leg = hopper.params.leg_length
+    if isinstance(terrain, str):
+        if terrain not in TERRAIN_FAMILIES:
+            raise ValueError(f"unknown terrain family {terrain!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+        name, terrain, end = f"{terrain}-{seed}", hopper_terrain(terrain, seed, scales), math.inf
+    elif isinstance(terrain, Terrain):
+        name, end = "terrain", terrain.x_end - leg
+    else:
+        raise TypeError(f"terrain must be a family name or a Terrain, got {type(terrain).__name__}")
+    start_x = (first_foothold(terrain, leg) if start_x is None else check_number(start_x, "start_x"))
+    if not terrain.x0 <= start_x < terrain.x_end or terrain.is_ditch_at(start_x):
+        raise ValueError(f"the start x={start_x:g} is not on solid ground of the terrain "
+                         f"[{terrain.x0:g}, {terrain.x_end:g}) m")
+    above = (DEMO_HEIGHT * scales.length * scales.start_heights[0] if height is None
+             else check_number(height, "start height", positive=True))
+    speed = DEMO_SPEED * scales.speed if speed is None else check_number(speed, "start speed", positive=True)
+    goal_x = min(start_x + DEMO_COURSE * scales.stride, end) if goal_x is None else check_number(goal_x, "goal_x")
+    if not start_x < goal_x < terrain.x_end:
+        raise ValueError(f"the goal x={goal_x:g} must lie ahead of the start x={start_x:g} and on the terrain, "
+                         f"which ends at x={terrain.x_end:g}")
+    apex = ApexState(start_x, terrain.height_at(start_x) + above, speed)
+    return suite_for(hopper, name, goal_x, None, [Case(f"{name}-v{speed:g}-z{above:g}", terrain, apex)])
+
+
+def first_foothold(terrain: Terrain, leg: float) -> float:
+    """x = 0 when the terrain has solid ground there, else one leg length past the start of its first solid
+    stretch at least that long (or the stretch's middle when none is), ValueError on a terrain with none."""
+    if terrain.x0 <= 0.0 < terrain.x_end and not terrain.is_ditch_at(0.0):
+        return 0.0
+    solid = terrain.heights > terrain.ditch_height
+    starts = np.flatnonzero(solid & ~np.r_[False, solid[:-1]])
+    ends = np.flatnonzero(solid & ~np.r_[solid[1:], False]) + 1
+    if not starts.size:
+        raise ValueError("the terrain has no solid ground to start on")
+    first, last = terrain.x0 + float(starts[0]) * terrain.cell, terrain.x0 + float(ends[0]) * terrain.cell
+    return first + leg if last - first > 2.0 * leg else 0.5 * (first + last)

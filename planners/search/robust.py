@@ -24,7 +24,9 @@ the particles, each with its own hopper over its own terrain, and stops at the f
 
 The margins (``landing``, ``edge_margin``, ``min_speed``) left at None are the paper's hopper's (LANDING,
 EDGE_MARGIN, MIN_SPEED) in the hopper's units, as every planner setting is (``planners.base.Planner``); given, they
-are in metres and m/s. The noise is the robot's sensors and actuators, in SI units whatever the hopper.
+are in metres and m/s. The noise, like the closed loop's, is the paper's hopper's in the hopper's units
+(``NoiseProfile.for_hopper``), and the ``friction_loss`` left at None the paper's hopper's FRICTION_LOSS in
+proportion to the hopper's friction (``drakeslip.noise.friction_factor``).
 """
 from __future__ import annotations
 
@@ -38,7 +40,7 @@ from drakeslip import SlipParams, Terrain
 from drakeslip.dynamics import height_at
 from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
                                  step_one)
-from drakeslip.noise import PROFILES, NoiseProfile
+from drakeslip.noise import PROFILES, NoiseProfile, friction_factor
 from drakeslip.params import check_count
 from drakeslip.terrain import LEVEL_TOLERANCE
 from drakeslip.units import units_of
@@ -47,6 +49,7 @@ from drakeslip.units import units_of
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
 # The paper's hopper's margins: where a particle must touch down [m], clear of edges [m], how fast it must go on
 LANDING, EDGE_MARGIN, MIN_SPEED = 0.04, 0.01, 0.3
+FRICTION_LOSS = 0.05  # the paper's hopper's friction taken off every particle's (its friction error's half-range)
 
 
 @dataclass(frozen=True)
@@ -63,7 +66,7 @@ class Robustness:
 
     noise: NoiseProfile = PROFILES["realistic"]
     sigmas: float = 2.0
-    friction_loss: float = 0.05
+    friction_loss: float | None = None
     landing: float | None = None
     edge_margin: float | None = None
     min_speed: float | None = None
@@ -80,7 +83,7 @@ class Robustness:
             object.__setattr__(self, "noise", NoiseProfile(**self.noise))
         for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed", "min_clearance"):
             value = getattr(self, name)
-            if value is None and name in ("landing", "edge_margin", "min_speed"):
+            if value is None and name in ("friction_loss", "landing", "edge_margin", "min_speed"):
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < math.inf:
                 raise ValueError(f"Robustness.{name} must be a non-negative number, got {value!r}")
@@ -103,7 +106,7 @@ class Robustness:
     def particles(self, apex, terrain: Terrain, params: SlipParams) -> "Particles":
         """The perturbed robots at the start ``apex`` over ``terrain`` (the map the planner sees), the nominal
         one first."""
-        n, s = self.noise, self.sigmas
+        n, s = self.noise.for_hopper(params), self.sigmas
         none = (0.0, 0.0)
         rows = [(np.zeros(3), 0.0, 1.0, 1.0, none)]
         for axis, sd in enumerate(n.apex):
@@ -122,7 +125,8 @@ class Robustness:
             if n.edges:  # its edges nearer or farther than seen
                 rows.append((np.zeros(3), 0.0, 1.0, 1.0, (0.0, sign * s * n.edges)))
         variants = list(dict.fromkeys((ks, ms, g) for *_, ks, ms, g in rows))
-        friction = max(params.friction - self.friction_loss, 1e-3)
+        loss = FRICTION_LOSS * friction_factor(params) if self.friction_loss is None else self.friction_loss
+        friction = max(params.friction - loss, 1e-3)
         worlds = Worlds.of([(Terrain(np.where(terrain.heights > terrain.ditch_height, terrain.heights + rise,
                                               terrain.heights), terrain.cell, terrain.x0 + shift, terrain.ditch_height),
                              replace(params, stiffness=params.stiffness * ks, mass=params.mass * ms, friction=friction))

@@ -20,11 +20,13 @@ import numpy as np
 import torch
 
 from drakeslip import SlipParams
+from drakeslip.hopper_file import Hopper
 from drakeslip.jobs.files import atomic_write
 from drakeslip.jobs.runner import FileStore
 
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.suite import make_suite
+from planners.formats.suite_draw import draw_suite
 from planners.learned.lstm import LSTMPlanner
 from planners.learned.ranker import N_FEATURES, RankerNet, candidate_features, log_probability, top_candidates
 from planners.learned.training.config import RankerTrainConfig
@@ -63,12 +65,18 @@ class CollectingPlanner(LSTMPlanner):
         return np.where(np.arange(score.size) == top[pick], score, 0.0)
 
 
-def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: int, top_k: int, explore: float):
+def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: int, top_k: int, explore: float,
+            hopper: dict | None = None):
     """One shard: (features (states, record_k, N_FEATURES), rooms (states, record_k), NaN where a state had fewer
     candidates) from every case of ``n_terrains`` terrains of ``family`` from terrain seed ``seed``, the planner
-    running the footstep model ``model`` (a checkpoint file) with the learner ``ranker``."""
-    suite = make_suite(family, seed, n_terrains)
-    params = SlipParams(friction=suite.friction)
+    running the footstep model ``model`` (a checkpoint file) with the learner ``ranker``, for the hopper whose
+    SlipParams fields are ``hopper`` on a suite drawn for it (None: the paper's hopper on the paper's suite)."""
+    if hopper is None:
+        suite = make_suite(family, seed, n_terrains)
+        params = SlipParams(friction=suite.friction)
+    else:
+        suite = draw_suite(family, seed, Hopper(SlipParams(**hopper), "training"), n_terrains)
+        params = SlipParams(**hopper).with_friction(suite.friction)
     planner = CollectingPlanner(record_k, explore, seed, model=model, ranker=ranker, top_k=top_k)
     for case in suite.cases:
         run_case(planner, planner.controller, case, suite.goal_x, params, ClosedLoopConfig(backend="fast"))
@@ -78,12 +86,12 @@ def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: in
 
 
 def collect_shard(family: str, seed: int, n_terrains: int, model: bytes, ranker: bytes | None, record_k: int,
-                  top_k: int, explore: float):
+                  top_k: int, explore: float, hopper: dict | None = None):
     """``collect`` as a task of the job runner: the footstep ``model`` and the learner's ``ranker``
     (None: follow the mode) come as the contents of their files, so a worker needs no filesystem shared with the
     driver; returns the shard's (features, rooms) for the driver to write (``save_shard``)."""
     return collect(family, seed, n_terrains, local_copy(model, ".pt"),
-                   None if ranker is None else local_copy(ranker, ".pt"), record_k, top_k, explore)
+                   None if ranker is None else local_copy(ranker, ".pt"), record_k, top_k, explore, hopper)
 
 
 def save_shard(path, shard) -> None:

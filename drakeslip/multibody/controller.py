@@ -1,0 +1,270 @@
+"""The hopper's low-level controller, a Drake ``LeafSystem`` running at the robot's control rate.
+
+It reads what the robot senses — the body state estimate (x, z, pitch and rates) and the joint encoders (hip
+angle, leg extension and rates) on ``state`` — and the footstep command on ``command`` (a ``FootholdCommand``:
+the footholds from the next touchdown on, the height map they were chosen on, and the energy per kg of body the
+plan's apexes have). Contact is inferred from the leg's compression, never from the simulator. Its output
+``actuation`` is (hip torque, leg force), inside the motor's torque-speed envelope and the leg actuator's force
+limit, applied one control period after the measurement it comes from.
+
+Phases (the discrete state's ``PHASE``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` to clear
+the ground and swings toward the touchdown angle; DESCENT, from apex (vertical velocity reaching zero) to
+touchdown (the leg compressing): the leg extends to its stop and the hip keeps it at the angle that lands the foot
+on the commanded foothold, recomputed each period from the body's ballistic path; STANCE, to liftoff (the leg back
+at its stop): the hip torque keeps the body level (within the friction cone's share of the leg force) and the leg
+actuator pushes during extension until the body has the energy the next planned apex needs plus what the
+unsprung foot's liftoff will take. The energy each hop still falls short of at its apex (damping, the model's
+errors) is learned as a bias added to the next targets.
+
+Parameters: ``RobotParams`` (the robot the controller knows), ``inject_energy`` (False: the leg actuator only
+retracts and extends the leg in flight, so nothing returns the energy each hop loses).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.common.value import AbstractValue
+from pydrake.systems.framework import BasicVector, LeafSystem
+
+from drakeslip.multibody.robot import RobotParams, StateLayout
+from drakeslip.terrain import Terrain
+
+ASCENT, DESCENT, STANCE = 0.0, 1.0, 2.0
+# The discrete state vector: phase; touchdowns since the command arrived; the command's stamp; apexes reached;
+# learned energy bias [J/kg]; this hop's energy target [J/kg]; hip torque and leg force sent; time the phase
+# began; foot x and the absolute leg angle at touchdown.
+(PHASE, STEP, STAMP, APEXES, BIAS, TARGET, TORQUE, FORCE, PHASE_START, TOUCHDOWN_X, TD_ANGLE) = range(11)
+STATE_SIZE = 11
+
+CLEARANCE = 0.03          # [m] the foot's height above the ground before the leg swings forward after liftoff
+RETRACT = 0.04            # [m] leg retraction in ascent: clears the ground the foot just left
+TOUCHDOWN_COMPRESSION = 0.003   # [m] compression (leg moving in) that says the foot touched down
+TOUCHDOWN_RATE = -0.2     # [m/s] ... and the leg's rate at that moment (extension in flight is positive)
+LIFTOFF_MARGIN = 0.002    # [m] the leg within this of its stop after MIN_STANCE says the foot left the ground
+MIN_STANCE = 0.03         # [s]
+BIAS_GAIN = 0.5           # share of an apex's energy error learned into the bias
+FLIGHT_GAINS = (150.0, 6.0)    # hip PD on the absolute leg angle in flight [N m/rad, N m s/rad]
+STANCE_GAINS = (100.0, 60.0)   # hip PD in stance on the body pitch and on the angular momentum (as a rate)
+LEG_GAINS = (3000.0, 40.0)     # leg PD on extension in flight [N/m, N s/m] (the spring is cancelled)
+FRICTION_SHARE = 0.4      # in stance the hip torque asks for at most this share of the friction cone
+
+
+@dataclass(frozen=True)
+class FootholdCommand:
+    """Footholds (x, from the next touchdown on) on the height map ``terrain``; ``energy`` [J/kg of body] the
+    planned apexes' g z + xdot^2 / 2 (None: keep the energy of the last apex); ``stamp`` tells one command from
+    the next (the controller counts touchdowns from a new stamp on). Past its last foothold (or with none) the
+    controller places the foot by Raibert's rule for the forward ``speed`` [m/s] (0: hopping in place).
+    ``apex_errors`` ((x, z, xdot) per step) perturb the body state the controller aims from (state estimation)
+    and ``angle_errors`` (rad per step) the leg angle it reaches (actuation), as the SLIP's rollouts do."""
+
+    footholds: tuple
+    terrain: Terrain
+    energy: float | None
+    stamp: int = 0
+    speed: float = 0.0
+    apex_errors: tuple = ()
+    angle_errors: tuple = ()
+
+    def __deepcopy__(self, memo):
+        return self   # immutable (frozen, tuples, a read-only terrain): Drake's state copies may share it
+
+
+class Heights:
+    """A terrain's height at a scalar x, in plain Python (``Terrain.height_at`` is made for arrays)."""
+
+    def __init__(self, terrain: Terrain):
+        self.terrain, self.x0, self.cell = terrain, terrain.x0, terrain.cell
+        self.values = terrain.heights.tolist()
+        self.last = len(self.values) - 1
+
+    def __call__(self, x: float) -> float:
+        return self.values[min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.last)]
+
+
+def apex_energy(z: float, xdot: float, gravity: float) -> float:
+    """Energy per kg of an apex at height ``z`` (world) moving at ``xdot``."""
+    return gravity * z + 0.5 * xdot * xdot
+
+
+def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, reach, foot_radius, gravity) -> float:
+    """The absolute leg angle (SLIP convention) that, held from the body state (x, z, xdot, zdot) on its
+    ballistic path, lands the foot ball's centre (``reach`` from the hip) above ``foothold_x`` when its bottom
+    reaches ``ground``; clipped to [-1, 1] rad. Bisection: the landing x grows with the angle."""
+    lo, hi = -1.0, 1.0
+    for _ in range(30):
+        mid = 0.5 * (lo + hi)
+        drop = z - reach * math.cos(mid) - foot_radius - ground
+        disc = zdot * zdot + 2.0 * gravity * drop
+        t = (zdot + math.sqrt(disc)) / gravity if disc > 0 else max(zdot / gravity, 0.0)
+        if x + xdot * t + reach * math.sin(mid) < foothold_x:
+            lo = mid
+        else:
+            hi = mid
+    return 0.5 * (lo + hi)
+
+
+def motor_torque(torque: float, speed: float, params: RobotParams) -> float:
+    """``torque`` inside the hip motor's envelope: the limit at stall, falling linearly to zero at the speed
+    limit when driving (torque and speed of one sign), the full limit when braking."""
+    limit = params.hip_torque_limit
+    if torque * speed > 0:
+        limit *= max(0.0, 1.0 - abs(speed) / params.hip_speed_limit)
+    return max(-limit, min(limit, torque))
+
+
+LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (hopper.sdf)
+LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (hopper.sdf)
+STANCE_TIME = 0.15        # [s] about half the body-on-spring period, pi sqrt(m / k) for the paper's hopper
+SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
+
+
+class HopperController(LeafSystem):
+    """Input ports ``state`` (the plant's state vector, read through ``layout``) and ``command`` (abstract
+    ``FootholdCommand``); output ``actuation`` (the plant's actuation vector). Discrete state: see STATE_SIZE."""
+
+    def __init__(self, params: RobotParams, layout: StateLayout, inject_energy: bool = True):
+        super().__init__()
+        self.params, self.layout, self.inject_energy = params, layout, bool(inject_energy)
+        self._q, self._v = list(layout.q), list(layout.v)
+        self.pitch_inertia = params.body_pitch_inertia
+        self._lookup = None
+        self.foot_share = params.foot_mass / params.slip.mass
+        # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
+        m_total = params.total_mass
+        reach = params.rest_extension - RETRACT
+        leg_inertia = (params.foot_mass * (m_total - params.foot_mass) / m_total * reach ** 2
+                       + params.leg_mass * (m_total - params.leg_mass) / m_total * LEG_COM ** 2 + LEG_INERTIA)
+        self.swing_ratio = leg_inertia / params.body_pitch_inertia
+        self.state_port = self.DeclareVectorInputPort("state", max(layout.v) + 1)
+        empty = FootholdCommand((), Terrain.flat(), None, -1)
+        self.command_port = self.DeclareAbstractInputPort("command", AbstractValue.Make(empty))
+        self.control_state = self.DeclareDiscreteState(STATE_SIZE)
+        self.DeclarePeriodicDiscreteUpdateEvent(params.time_step, 0.0, self._update)
+        self.DeclareVectorOutputPort("actuation", layout.n_actuators, self._output,
+                                     prerequisites_of_calc={self.discrete_state_ticket(self.control_state)})
+
+    def initial_state(self, phase: float = DESCENT, energy_bias: float = 0.0) -> np.ndarray:
+        """A discrete state vector to start from (``phase``, a known ``energy_bias``)."""
+        s = np.zeros(STATE_SIZE)
+        s[PHASE], s[STAMP], s[BIAS], s[TARGET] = phase, -1.0, energy_bias, math.nan
+        return s
+
+    def _output(self, context, output: BasicVector):
+        s = context.get_discrete_state(self.control_state).get_value()
+        u = np.zeros(self.layout.n_actuators)
+        u[self.layout.actuation[0]], u[self.layout.actuation[1]] = s[TORQUE], s[FORCE]
+        output.SetFromVector(u)
+
+    def _angular_momentum(self, xd, zd, pitchd, leg, legd, angle, angle_rate) -> float:
+        """The robot's angular momentum about its centre of mass [N m s] (positive turning x toward z)."""
+        p = self.params
+        sin, cos = math.sin(angle), math.cos(angle)
+        masses = (p.slip.mass, p.leg_mass, p.foot_mass)
+        points = ((0.0, 0.0), (LEG_COM * sin, -LEG_COM * cos), (leg * sin, -leg * cos))
+        rates = ((0.0, 0.0), (LEG_COM * cos * angle_rate, LEG_COM * sin * angle_rate),
+                 (legd * sin + leg * cos * angle_rate, -legd * cos + leg * sin * angle_rate))
+        total = sum(masses)
+        cx = sum(m * r[0] for m, r in zip(masses, points)) / total
+        cz = sum(m * r[1] for m, r in zip(masses, points)) / total
+        vx = sum(m * v[0] for m, v in zip(masses, rates)) / total
+        vz = sum(m * v[1] for m, v in zip(masses, rates)) / total
+        spin = self.pitch_inertia * pitchd + LEG_INERTIA * angle_rate
+        return spin + sum(m * ((r[0] - cx) * (v[1] - vz) - (r[1] - cz) * (v[0] - vx))
+                          for m, r, v in zip(masses, points, rates))
+
+    def _heights(self, terrain: Terrain) -> Heights:
+        if self._lookup is None or self._lookup.terrain is not terrain:
+            self._lookup = Heights(terrain)
+        return self._lookup
+
+    def _clearance(self, x, z, leg, angle, target, terrain: Terrain) -> float:
+        """The foot's height above the highest ground between it and where the swing to ``target`` takes it."""
+        reach = leg + self.params.foot_radius
+        foot_x = x + leg * math.sin(angle)
+        lo, hi = sorted((foot_x, x + reach * math.sin(target)))
+        cells = terrain.heights[terrain.index(lo):terrain.index(hi) + 1]
+        ground = float(cells.max()) if cells.size else self._heights(terrain)(foot_x)
+        return z - leg * math.cos(angle) - self.params.foot_radius - ground
+
+    def raibert_angle(self, xdot: float, speed: float) -> float:
+        """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
+        plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
+        offset = 0.5 * xdot * STANCE_TIME + SPEED_GAIN * (xdot - speed)
+        return math.asin(max(-0.8, min(0.8, offset / self.params.slip.leg_length)))
+
+    def _update(self, context, discrete_state):
+        p = self.params
+        slip = p.slip
+        s = discrete_state.get_mutable_vector(self.control_state).get_mutable_value()
+        full = self.state_port.Eval(context)
+        (x, z, pitch, hip, leg), (xd, zd, pitchd, hipd, legd) = full[self._q], full[self._v]
+        command = self.command_port.Eval(context)
+        t = context.get_time()
+        if command.stamp != s[STAMP]:
+            s[STAMP], s[STEP] = command.stamp, 0.0
+        rest, g = p.rest_extension, slip.gravity
+        phase = s[PHASE]
+        if phase == ASCENT and zd <= 0.0:
+            s[APEXES] += 1.0
+            energy = apex_energy(z, xd, g)
+            if s[TARGET] == s[TARGET]:
+                s[BIAS] += BIAS_GAIN * (s[TARGET] - energy)
+            s[TARGET] = command.energy if command.energy is not None else energy
+            phase = DESCENT
+        elif phase == DESCENT and rest - leg > TOUCHDOWN_COMPRESSION and legd < TOUCHDOWN_RATE:
+            phase = STANCE
+            s[STEP] += 1.0
+            s[TOUCHDOWN_X] = x + leg * math.sin(pitch + hip)
+            s[TD_ANGLE] = pitch + hip
+        elif phase == STANCE and t - s[PHASE_START] > MIN_STANCE and leg >= rest - LIFTOFF_MARGIN:
+            phase = ASCENT
+        if phase != s[PHASE]:
+            s[PHASE], s[PHASE_START] = phase, t
+        if s[TARGET] != s[TARGET]:
+            s[TARGET] = command.energy if command.energy is not None else apex_energy(z, xd, g)
+        angle, angle_rate = pitch + hip, pitchd + hipd
+        if phase == STANCE:
+            kp, kd = STANCE_GAINS
+            # lean against the pitch the next flight's leg swing will cause (about symmetric: -angle to +angle)
+            lean = self.swing_ratio * s[TD_ANGLE]
+            momentum = self._angular_momentum(xd, zd, pitchd, leg, legd, angle, angle_rate)
+            # the leg pushes the body toward the lean and the robot's angular momentum toward zero, so that
+            # the leg's swing in flight (which cannot change it) ends with the body near level
+            torque = kp * (pitch - lean) + kd * momentum / self.pitch_inertia
+            leg_force = slip.stiffness * max(rest - leg, 0.0)
+            reach = leg + p.foot_radius
+            torque_cap = FRICTION_SHARE * slip.friction * leg_force * reach
+            torque = max(-torque_cap, min(torque_cap, torque))
+            force = 0.0
+            if self.inject_energy and legd > 0.0:
+                energy = g * z + 0.5 * (xd * xd + zd * zd) + 0.5 * slip.stiffness * (rest - leg) ** 2 / slip.mass
+                # the foot, at rest on the ground, is jerked to the body's speed at liftoff: a plastic impact
+                liftoff_loss = 0.5 * self.foot_share * (xd * xd + zd * zd)
+                need = s[TARGET] + liftoff_loss + s[BIAS] - energy
+                force = slip.mass * need / max(rest - leg, 0.01)
+                force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
+        else:
+            step = int(s[STEP])
+            if step < len(command.footholds):
+                foothold = command.footholds[step]
+                ground = self._heights(command.terrain)(foothold)
+                ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
+                target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
+                                         slip.leg_length - p.foot_radius, p.foot_radius, g)
+                if step < len(command.angle_errors):
+                    target += command.angle_errors[step]
+            else:
+                target = self.raibert_angle(xd, command.speed)
+            kp, kd = FLIGHT_GAINS
+            if phase == ASCENT and self._clearance(x, z, leg, angle, target, command.terrain) < CLEARANCE:
+                kp = kd = 0.0   # the foot is leaving the ground: the leg retracts, free to swing on backward
+            torque = kp * (target - angle) - kd * angle_rate
+            goal = rest - RETRACT if phase == ASCENT else rest + 0.01
+            kp, kd = LEG_GAINS
+            force = kp * (goal - leg) - kd * legd - slip.stiffness * (rest - leg)
+            force = max(-p.leg_force_limit, min(p.leg_force_limit, force))
+        s[TORQUE] = motor_torque(torque, hipd, p)
+        s[FORCE] = force

@@ -1,0 +1,99 @@
+"""The multibody hopper's Diagram, built by one function: plant + scene graph (robot and terrain), the
+controller, and either a fixed footstep command or a planner system, with an optional Meshcat visualizer."""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
+from pydrake.systems.framework import DiagramBuilder
+
+from drakeslip.multibody.controller import DESCENT, FootholdCommand, HopperController
+from drakeslip.multibody.robot import HopperParts, RobotParams, StateLayout, add_hopper
+from drakeslip.multibody.terrain import add_terrain
+from drakeslip.state import ApexState
+from drakeslip.terrain import Terrain
+
+
+@dataclass
+class HopperDiagram:
+    """A built diagram and its parts: ``plant``, ``scene_graph``, ``controller``, ``parts`` and ``layout`` of the
+    robot in the plant, ``planner`` (None with a fixed command) and ``visualizer`` (None without Meshcat)."""
+
+    diagram: object
+    plant: object
+    scene_graph: object
+    controller: HopperController
+    parts: HopperParts
+    layout: StateLayout
+    params: RobotParams
+    terrain: Terrain
+    planner: object = None
+    visualizer: object = None
+
+
+def add_robot_and_terrain(builder, terrain: Terrain, params: RobotParams):
+    """Add the plant (discrete at ``params.time_step``, compliant point contact solved by SAP) with the hopper
+    and ``terrain``'s boxes to ``builder``; returns (plant, scene_graph, parts, layout)."""
+    config = MultibodyPlantConfig(time_step=params.time_step, contact_model="point",
+                                  discrete_contact_approximation="sap")
+    plant, scene_graph = AddMultibodyPlant(config, builder)
+    parts = add_hopper(plant, params)
+    add_terrain(plant, terrain, params.slip.friction)
+    plant.Finalize()
+    return plant, scene_graph, parts, parts.layout(plant)
+
+
+def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, make_planner=None,
+                  inject_energy: bool = True, meshcat=None) -> HopperDiagram:
+    """The closed loop on ``terrain``: plant and scene graph, the controller (``inject_energy`` as there), and
+    the command from the system ``make_planner(layout)`` returns (ports ``state`` in and ``command`` out, e.g.
+    ``planners.drake_system.FootstepPlannerSystem``) or, without one, from a fixed value the caller sets on the
+    diagram's ``command`` input (``set_command``). ``meshcat``: a ``pydrake.geometry.Meshcat`` to draw into."""
+    params = params or RobotParams()
+    builder = DiagramBuilder()
+    plant, scene_graph, parts, layout = add_robot_and_terrain(builder, terrain, params)
+    controller = builder.AddSystem(HopperController(params, layout, inject_energy))
+    controller.set_name("hopper_controller")
+    builder.Connect(plant.get_state_output_port(), controller.state_port)
+    builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port())
+    planner_system = None if make_planner is None else make_planner(layout)
+    if planner_system is not None:
+        builder.AddSystem(planner_system)
+        builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))
+        builder.Connect(planner_system.GetOutputPort("command"), controller.command_port)
+    else:
+        builder.ExportInput(controller.command_port, "command")
+    visualizer = None
+    if meshcat is not None:
+        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
+
+        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
+                                                    MeshcatVisualizerParams(role=Role.kIllustration))
+    return HopperDiagram(builder.Build(), plant, scene_graph, controller, parts, layout, params, terrain,
+                         planner_system, visualizer)
+
+
+def set_apex_state(hd: HopperDiagram, root_context, apex: ApexState, leg_angle: float = 0.0,
+                   energy_bias: float = 0.0) -> None:
+    """Put the robot at ``apex`` (body level and still in pitch, moving at xdot), its leg retracted as in
+    flight at the absolute ``leg_angle``, and the controller in its descent phase with ``energy_bias``."""
+    p = hd.params
+    plant_context = hd.plant.GetMyMutableContextFromRoot(root_context)
+    q = np.zeros(hd.plant.num_positions())
+    v = np.zeros(hd.plant.num_velocities())
+    nq = hd.plant.num_positions()
+    from drakeslip.multibody.controller import RETRACT
+
+    q[list(hd.layout.q)] = (apex.x, apex.z, 0.0, leg_angle, p.rest_extension - RETRACT)
+    v[[i - nq for i in hd.layout.v]] = (apex.xdot, 0.0, 0.0, 0.0, 0.0)
+    hd.plant.SetPositions(plant_context, q)
+    hd.plant.SetVelocities(plant_context, v)
+    controller_context = hd.controller.GetMyMutableContextFromRoot(root_context)
+    controller_context.SetDiscreteState(hd.controller.initial_state(DESCENT, energy_bias))
+
+
+def set_command(hd: HopperDiagram, root_context, command: FootholdCommand) -> None:
+    """Fix the command of a diagram built without a planner system."""
+    hd.diagram.GetInputPort("command").FixValue(root_context, command)

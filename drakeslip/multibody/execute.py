@@ -1,0 +1,103 @@
+"""Footsteps executed on the multibody hopper from an apex, recorded as a ``HopLog`` (``drakeslip.rollout``'s
+multibody backend turns it into the project's ``Rollout``, so that plan checking and robustness run on the
+robot), and the flat-ground gait check."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from pydrake.systems.analysis import Simulator
+
+from drakeslip.multibody.controller import FootholdCommand, apex_energy
+from drakeslip.multibody.diagram import build_diagram, set_apex_state, set_command
+from drakeslip.multibody.failures import HOP_SECONDS, HopLog, HopMonitor
+from drakeslip.multibody.robot import RobotParams
+from drakeslip.state import ApexState
+from drakeslip.terrain import Terrain
+
+# The energy per kg of body a hop loses beyond the foot's liftoff (which the controller accounts for), a + b
+# xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
+LOSS_PRIOR = (0.10, 0.035)
+
+_built: dict = {}
+
+
+def _diagram(terrain: Terrain, robot: RobotParams, inject_energy: bool):
+    """The diagram for this terrain and robot, reused while they stay the same (building one takes ~0.1 s)."""
+    key = (id(terrain), robot, inject_energy)
+    if key not in _built:
+        _built.clear()
+        _built[key] = (build_diagram(terrain, robot, inject_energy=inject_energy), terrain)
+    return _built[key][0]
+
+
+def loss_prior(xdot: float) -> float:
+    a, b = LOSS_PRIOR
+    return a + b * xdot * xdot
+
+
+def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None, *,
+            sensed_terrain: Terrain | None = None, apex_errors=None, angle_errors=None, inject_energy: bool = True,
+            trajectory: bool = False, max_time: float | None = None) -> HopLog:
+    """Hop the robot from ``apex`` (body level, leg retracted and aimed at the first foothold) over ``terrain``,
+    touching down on each of ``footholds`` (aimed at on ``sensed_terrain``, default ``terrain``) and stopping at
+    the apex after the last. ``apex_errors`` (per hop, (x, z, xdot)) and ``angle_errors`` (per hop, rad) as in
+    ``drakeslip.rollout``. Returns the HopLog: footholds touched, absolute leg angles at touchdown, apexes, the
+    named failure (a STALL when the hops do not finish in time), the largest pitch, the trajectory when asked."""
+    robot = robot or RobotParams()
+    apex = ApexState(*map(float, apex))
+    footholds = tuple(float(f) for f in footholds)
+    hd = _diagram(terrain, robot, inject_energy)
+    simulator = Simulator(hd.diagram)
+    context = simulator.get_mutable_context()
+    errors = () if apex_errors is None else tuple(tuple(map(float, e)) for e in np.asarray(apex_errors))
+    command = FootholdCommand(footholds, sensed_terrain or terrain, None, 0, 0.0, errors,
+                              () if angle_errors is None else tuple(map(float, np.ravel(angle_errors))))
+    set_apex_state(hd, context, apex, _first_angle(apex, footholds, command.terrain, robot),
+                   loss_prior(apex.xdot))
+    set_command(hd, context, command)
+    monitor = HopMonitor(hd, terrain, context, len(footholds), trajectory)
+    monitor.command_footholds = footholds
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    end = max_time if max_time is not None else HOP_SECONDS * (len(footholds) + 1)
+    simulator.AdvanceTo(end)
+    log = monitor.log
+    if log.failure is None and len(log.apexes) < len(footholds):
+        from drakeslip.multibody.failures import RobotFailure
+        from drakeslip.state import FailureMode
+
+        x = float(log.apexes[-1].x) if log.apexes else apex.x
+        log.failure = RobotFailure(FailureMode.STALL, "the hops did not finish in time", end, x, len(log.footholds),
+                                   (x, math.nan, math.nan, math.nan))
+    return log
+
+
+def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex_height: float = 0.62,
+                 trajectory: bool = False) -> HopLog:
+    """``hops`` hops on flat ground at the forward ``speed`` (0: in place) with the controller's own foot
+    placement (Raibert's) and an energy target of an apex ``apex_height`` high at that speed: the gait check."""
+    robot = robot or RobotParams()
+    terrain = Terrain.flat(length=max(30.0, 1.5 * hops * max(speed, 0.1)))
+    hd = _diagram(terrain, robot, True)
+    simulator = Simulator(hd.diagram)
+    context = simulator.get_mutable_context()
+    apex = ApexState(0.0, apex_height, float(speed))
+    command = FootholdCommand((), terrain, apex_energy(apex_height, speed, robot.slip.gravity), 0, float(speed))
+    set_apex_state(hd, context, apex, hd.controller.raibert_angle(speed, speed), loss_prior(speed))
+    set_command(hd, context, command)
+    monitor = HopMonitor(hd, terrain, context, hops, trajectory)
+    simulator.set_monitor(monitor)
+    simulator.Initialize()
+    simulator.AdvanceTo(HOP_SECONDS * (hops + 1))
+    return monitor.log
+
+
+def _first_angle(apex: ApexState, footholds, terrain: Terrain, robot: RobotParams) -> float:
+    from drakeslip.multibody.controller import touchdown_angle
+
+    if not footholds:
+        return 0.0
+    reach = robot.rest_extension
+    return touchdown_angle(apex.x, apex.z, apex.xdot, 0.0, footholds[0], terrain.height_at(footholds[0]), reach,
+                           robot.foot_radius, robot.slip.gravity)

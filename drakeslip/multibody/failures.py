@@ -1,0 +1,154 @@
+"""What a multibody run did, hop by hop, and how it failed: a Simulator monitor that reads the plant's state and
+the controller's phase after every step.
+
+Failures carry the SLIP's names (``FailureMode``) with what happened on the robot (``RobotFailure.what``):
+FOOT_COLLISION — the foot in a ditch (below its rim) or pressed into a step's vertical face; TRIP — the foot
+meets the ground while swinging forward after liftoff; SLIP — the foot slides ``SLIP_DISTANCE`` in stance;
+BOTTOM_OUT — the leg reaches its bottom-out stop; STALL — no apex with forward speed toward a foothold ahead, or
+a hop longer than ``HOP_SECONDS``; BODY_COLLISION — a fall: the body pitches past ``PITCH_LIMIT`` or a corner of
+the body box reaches the terrain.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from pydrake.systems.framework import EventStatus
+
+from drakeslip.multibody.controller import ASCENT, DESCENT, PHASE, STANCE, TD_ANGLE, TOUCHDOWN_X, Heights
+from drakeslip.state import ApexState, FailureMode
+from drakeslip.terrain import Terrain
+
+PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
+SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
+HOP_SECONDS = 5.0      # a hop longer than this is a STALL, as on the SLIP (drakeslip.rollout)
+BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (hopper.sdf)
+TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
+
+
+@dataclass(frozen=True)
+class RobotFailure:
+    """A named failure: ``mode`` (the SLIP's name), ``what`` (on the robot), ``time`` [s], ``x`` of the body and
+    ``hop`` (touchdowns before it)."""
+
+    mode: FailureMode
+    what: str
+    time: float
+    x: float
+    hop: int
+    state: tuple
+
+
+@dataclass
+class HopLog:
+    """Touchdowns (foot x and absolute leg angle), apexes, the largest |pitch|, the failure (None if none), and
+    with ``trajectory`` the times and plant positions of every step."""
+
+    footholds: list = field(default_factory=list)
+    leg_angles: list = field(default_factory=list)
+    apexes: list = field(default_factory=list)
+    max_pitch: float = 0.0
+    failure: RobotFailure | None = None
+    times: list = field(default_factory=list)
+    positions: list = field(default_factory=list)
+
+
+class HopMonitor:
+    """A ``Simulator.set_monitor`` callback over a ``HopperDiagram``: logs hops into ``log`` and ends the run at a
+    failure or after ``max_apexes`` apexes (None: never). ``forward`` tells whether the command moves forward
+    (a STALL needs forward speed to be missing)."""
+
+    def __init__(self, hd, terrain: Terrain, root_context, max_apexes: int | None, trajectory: bool = False):
+        self.hd, self.terrain, self.max_apexes, self.trajectory = hd, terrain, max_apexes, trajectory
+        self.plant_context = hd.plant.GetMyContextFromRoot(root_context)
+        self.controller_context = hd.controller.GetMyContextFromRoot(root_context)
+        self.log = HopLog()
+        self.height = Heights(terrain)
+        self.phase = None
+        self.phase_start = 0.0
+        self.apexes = 0
+        p = hd.params
+        self.radius, self.bottom = p.foot_radius, p.bottom_extension
+        self.q_index = list(hd.layout.q)
+        self.v_index = list(hd.layout.v)
+
+    def __call__(self, root_context):
+        t = root_context.get_time()
+        full = self.hd.plant.get_state_output_port().Eval(self.plant_context)
+        (x, z, pitch, hip, leg), (xd, zd, *_) = full[self.q_index], full[self.v_index]
+        c = self.controller_context.get_discrete_state(self.hd.controller.control_state).get_value()
+        log = self.log
+        if self.trajectory:
+            log.times.append(t)
+            log.positions.append(full[:self.hd.plant.num_positions()].copy())
+        log.max_pitch = max(log.max_pitch, abs(pitch))
+        phase = c[PHASE]
+        if phase != self.phase:
+            if phase == STANCE:
+                log.footholds.append(float(c[TOUCHDOWN_X]))
+                log.leg_angles.append(float(c[TD_ANGLE]))
+            elif phase == DESCENT and self.phase == ASCENT:
+                log.apexes.append(ApexState(float(x), float(z), float(xd)))
+            self.phase, self.phase_start = phase, t
+        failure = self._failure(t, x, z, xd, zd, pitch, hip, leg, phase, c)
+        if failure is not None:
+            log.failure = RobotFailure(failure[0], failure[1], t, float(x), len(log.footholds),
+                                       (float(x), float(z), float(xd), float(zd)))
+            return EventStatus.ReachedTermination(self.hd.diagram, f"{failure[0].name}: {failure[1]}")
+        if self.max_apexes is not None and len(log.apexes) >= self.max_apexes:
+            return EventStatus.ReachedTermination(self.hd.diagram, "commands done")
+        return EventStatus.Succeeded()
+
+    def _failure(self, t, x, z, xd, zd, pitch, hip, leg, phase, c):
+        terrain, height = self.terrain, self.height
+        if abs(pitch) > PITCH_LIMIT:
+            return FailureMode.BODY_COLLISION, f"fall: the body pitched to {pitch:+.2f} rad"
+        cp, sp = math.cos(pitch), math.sin(pitch)
+        for u, w in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
+            # the body box's corners: body x turns toward z with positive pitch
+            cx = x + u * BODY_HALF[0] * cp - w * BODY_HALF[1] * sp
+            cz = z + u * BODY_HALF[0] * sp + w * BODY_HALF[1] * cp
+            if cz < height(cx):
+                return FailureMode.BODY_COLLISION, f"fall: the body touched the ground at x={cx:.2f}"
+        angle = pitch + hip
+        fx, fz = x + leg * math.sin(angle), z - leg * math.cos(angle) - self.radius
+        if leg <= self.bottom + 1e-3:
+            return FailureMode.BOTTOM_OUT, "the leg reached its bottom-out stop"
+        reach = self.radius - 2e-3   # the ball's side, less the contact's compliance
+        around = max(height(fx - reach), height(fx + reach))
+        in_ditch = height(fx) <= terrain.ditch_height
+        if fz < around - 0.01 and not in_ditch:
+            return FailureMode.FOOT_COLLISION, f"the foot pressed into a step's face at x={fx:.2f}"
+        if in_ditch:
+            rim = _rim_below(terrain, fx)
+            if fz < rim - 0.02:
+                return FailureMode.FOOT_COLLISION, f"the foot went into a ditch at x={fx:.2f}"
+        if phase == ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
+            return FailureMode.TRIP, f"the swinging foot caught the ground at x={fx:.2f}"
+        # the ball rolls as the leg turns over it: its centre moves r (angle at touchdown - angle) with no slip
+        slide = fx - c[TOUCHDOWN_X] - self.radius * (c[TD_ANGLE] - angle)
+        if phase == STANCE and abs(slide) > SLIP_DISTANCE:
+            return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
+        if t - self.phase_start > HOP_SECONDS:
+            return FailureMode.STALL, "no hop completed"
+        if phase == DESCENT and self.phase_start == t and xd <= 0.0 and self._target_ahead(x, c):
+            return FailureMode.STALL, f"no forward speed at the apex (xdot={xd:+.2f} m/s)"
+        return None
+
+    def _target_ahead(self, x, c) -> bool:
+        footholds = self.command_footholds
+        return bool(footholds) and footholds[-1] > x + 0.05
+
+    command_footholds: tuple = ()
+
+
+def _rim_below(terrain: Terrain, x: float) -> float:
+    """The lower of the solid heights on both sides of the ditch under ``x``."""
+    i = int(terrain.index(x))
+    h = terrain.heights
+    solid = np.flatnonzero(h > terrain.ditch_height)
+    before, after = solid[solid < i], solid[solid > i]
+    rims = [float(h[before[-1]])] if before.size else []
+    rims += [float(h[after[0]])] if after.size else []
+    return min(rims) if rims else terrain.ditch_height

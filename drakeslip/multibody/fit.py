@@ -1,0 +1,100 @@
+"""The SLIP template fitted to the multibody robot: the spring-mass parameters whose apex-to-apex map best
+predicts the robot's, over hops like the suites' (``examples/fit_template.py`` records them from closed-loop runs).
+
+A hop is (apex, foothold, foothold height) -> next apex. The template predicts it by aiming its leg so that its
+foot lands where the robot's did (the SLIP's touchdown geometry with the template's leg length) and stepping its
+map (``drakeslip.stepmap``); heights are taken relative to the foothold, where the stance happens. ``fit``
+searches the leg length and the stiffness (the map depends on stiffness over mass only, so the mass stays the
+robot body's) by Nelder-Mead on the squared x and z errors, and ``errors`` reports the per-hop errors.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+
+import numpy as np
+
+from drakeslip.multibody.controller import touchdown_angle
+from drakeslip.params import SlipParams
+from drakeslip.state import ApexState
+from drakeslip.terrain import Terrain
+
+FIT_NAME = "multibody"   # the fitted template's hopper name
+TEMPLATE_FILE = Path(__file__).resolve().parent / "template.json"   # where examples/fit_template.py writes it
+
+
+@dataclass(frozen=True)
+class Hop:
+    """One robot hop: from ``apex`` (x, z, xdot) it touched down at ``foothold`` (ground ``height``) and reached
+    ``next_apex``."""
+
+    apex: tuple
+    foothold: float
+    height: float
+    next_apex: tuple
+
+
+def hops_from_log(log, start: ApexState, terrain: Terrain) -> list[Hop]:
+    """The completed hops of a ``HopLog`` that started at ``start``."""
+    apexes = [tuple(start)] + [tuple(a) for a in log.apexes]
+    return [Hop(apexes[k], float(f), float(terrain.height_at(f)), apexes[k + 1])
+            for k, f in enumerate(log.footholds[:len(apexes) - 1])]
+
+
+def predict(hops: list[Hop], params: SlipParams) -> np.ndarray:
+    """(n, 3) the template's next apex for each hop (NaN rows where its hop fails)."""
+    from drakeslip.stepmap import step_batch
+
+    rows = np.array([(h.apex[0], h.apex[1] - h.height, h.apex[2]) for h in hops], dtype=np.float64)
+    angles = np.array([touchdown_angle(x, z, xd, 0.0, h.foothold, 0.0, params.leg_length, 0.0, params.gravity)
+                       for (x, z, xd), h in zip(rows, hops)])
+    ok = rows[:, 1] > params.leg_length * np.cos(angles) + 1e-3
+    out = np.full((len(hops), 3), np.nan)
+    if ok.any():
+        r = step_batch(rows[ok], angles[ok], Terrain.flat(0.0, length=60.0, x0=-10.0), params)
+        nxt = np.column_stack([r.next_x, r.next_z, r.next_xdot])
+        nxt[~np.asarray(r.ok)] = np.nan
+        out[ok] = nxt
+    out[:, 1] += np.array([h.height for h in hops])
+    return out
+
+
+def errors(hops: list[Hop], params: SlipParams) -> np.ndarray:
+    """(n, 3) |predicted - robot| next apex, per hop (x [m], z [m], xdot [m/s]); NaN where the template fails."""
+    return np.abs(predict(hops, params) - np.array([h.next_apex for h in hops]))
+
+
+def summary(err: np.ndarray) -> dict:
+    """Median and 90th percentile of each error column, and the share of hops the template fails."""
+    ok = np.all(np.isfinite(err), axis=1)
+    e = err[ok] if ok.any() else np.full((1, 3), np.nan)
+    return {"hops": int(len(err)), "template_failed": int((~ok).sum()),
+            **{f"{stat}_{name}": float(fn(e[:, i])) for i, name in enumerate(("x", "z", "xdot"))
+               for stat, fn in (("median", np.median), ("p90", lambda v: np.percentile(v, 90)))}}
+
+
+def fit(hops: list[Hop], start: SlipParams) -> SlipParams:
+    """The leg length and stiffness (from ``start``) minimizing the summed squared x and z errors over ``hops``
+    (a failed template hop costs as much as a 0.5 m error)."""
+    from scipy.optimize import minimize
+
+    def cost(v):
+        leg, log_k = v
+        if not start.min_leg_length + 0.05 < leg < 1.5 * start.leg_length:
+            return 1e6
+        p = replace(start, leg_length=float(leg), stiffness=float(math.exp(log_k)))
+        err = errors(hops, p)[:, :2]
+        return float(np.sum(np.where(np.isfinite(err), err, 0.5) ** 2))
+
+    best = minimize(cost, [start.leg_length, math.log(start.stiffness)], method="Nelder-Mead",
+                    options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 200})
+    leg, log_k = best.x
+    return replace(start, leg_length=float(leg), stiffness=float(math.exp(log_k)))
+
+
+def fitted_template() -> SlipParams | None:
+    """The template fitted to the default robot (``TEMPLATE_FILE``), None when no fit has been written."""
+    from drakeslip.hopper_file import load_hopper
+
+    return load_hopper(TEMPLATE_FILE).params if TEMPLATE_FILE.is_file() else None

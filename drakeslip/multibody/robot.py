@@ -1,0 +1,183 @@
+"""The multibody hopper: its parameters and its MultibodyPlant, loaded from the packaged ``hopper.sdf``.
+
+The SLIP template is a point mass on a massless spring leg. The robot it stands for has a body with a pitch
+inertia, a leg swung by a torque- and speed-limited hip motor, a telescoping lower leg on the template's spring
+between a hard stop at the rest length and a bottom-out stop at the template's ``min_leg_length``, and an unsprung
+foot that makes compliant, friction-limited contact. ``RobotParams`` holds every value (defaults are the SDF's);
+``add_hopper`` writes them into the SDF before parsing it and adds the planar floating base (x, z, pitch).
+
+Coordinates: world x forward, z up; the hopper moves in the x-z plane. The pitch and the hip angle turn about
+-y, so that a positive pitch lifts the nose and a positive absolute leg angle (pitch + hip) puts the foot ahead
+of the hip, the SLIP's leg-angle convention (``drakeslip.state``).
+"""
+from __future__ import annotations
+
+import math
+import xml.etree.ElementTree as ET
+from dataclasses import asdict, dataclass, field
+from importlib import resources
+
+import numpy as np
+
+from drakeslip.params import SlipParams, check_number
+
+SDF_FILE = "hopper.sdf"
+
+
+@dataclass(frozen=True)
+class RobotParams:
+    """The multibody hopper's physical values, SI units.
+
+    ``slip`` — the template the robot is built around: body mass, spring stiffness, rest length (hip to the
+    foot's ground contact), bottom-out length, gravity and the foot-ground friction, the paper's hopper by
+    default. ``body_pitch_inertia`` 0.25 kg m^2 — a 7 kg body about 0.6 m long with its battery and electronics
+    at the ends (radius of gyration 0.19 m); it is about three times the leg's inertia about the hip, so the
+    flight-phase leg swing pitches the body by a quarter of the swing angle, as in Raibert's planar hopper.
+    ``leg_mass`` 0.35 kg (5 % of the body) — the upper leg with the leg actuator, swung by the hip motor;
+    ``foot_mass`` 0.35 kg (5 %) — lower leg and foot below the spring, the unsprung mass whose velocity is lost
+    at each touchdown. ``foot_radius`` 0.03 m — a rubber foot ball. ``leg_damping`` 2 N s/m — the telescope's
+    friction, under 1 % of critical damping of the body on the spring. ``hip_torque_limit`` 30 N m and
+    ``hip_speed_limit`` 25 rad/s — a small geared motor that swings the leg through 0.6 rad in well under the
+    0.3 s of a flight. ``leg_force_limit`` 300 N — the leg actuator in series with the spring, about half the
+    spring force at bottom-out, enough to return a hop's touchdown losses within one stance.
+    ``contact_stiffness`` 2e5 N/m and ``contact_dissipation`` 1 s/m — a rubber foot on hard ground: a few mm
+    of penetration at the peak stance force. ``time_step`` 1 ms — the plant's discrete step and the
+    controller's period, a typical 1 kHz robot control loop.
+    """
+
+    slip: SlipParams = field(default_factory=SlipParams)
+    body_pitch_inertia: float = 0.25
+    leg_mass: float = 0.35
+    foot_mass: float = 0.35
+    foot_radius: float = 0.03
+    leg_damping: float = 2.0
+    hip_torque_limit: float = 30.0
+    hip_speed_limit: float = 25.0
+    leg_force_limit: float = 300.0
+    contact_stiffness: float = 2e5
+    contact_dissipation: float = 1.0
+    time_step: float = 1e-3
+
+    def __post_init__(self):
+        if not isinstance(self.slip, SlipParams):
+            raise TypeError(f"RobotParams.slip must be a SlipParams, got {type(self.slip).__name__}")
+        for name in ("body_pitch_inertia", "leg_mass", "foot_mass", "foot_radius", "leg_damping",
+                     "hip_torque_limit", "hip_speed_limit", "leg_force_limit", "contact_stiffness",
+                     "contact_dissipation", "time_step"):
+            check_number(getattr(self, name), f"RobotParams.{name}", positive=name != "leg_damping")
+        if not self.foot_radius < self.slip.min_leg_length / 2:
+            raise ValueError(f"RobotParams.foot_radius must be below half the bottom-out length "
+                             f"{self.slip.min_leg_length}, got {self.foot_radius}")
+
+    @property
+    def rest_extension(self) -> float:
+        """The leg joint's position at the spring's rest length (the hard stop): foot centre below the hip."""
+        return self.slip.leg_length - self.foot_radius
+
+    @property
+    def bottom_extension(self) -> float:
+        """The leg joint's position at bottom-out."""
+        return self.slip.min_leg_length - self.foot_radius
+
+    @property
+    def total_mass(self) -> float:
+        return self.slip.mass + self.leg_mass + self.foot_mass
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: dict) -> "RobotParams":
+        d = dict(d)
+        return cls(slip=SlipParams(**d.pop("slip")), **d)
+
+
+def _set(root, path: str, value) -> None:
+    node = root.find(path)
+    node.text = repr(float(value)) if not isinstance(value, str) else value
+
+
+def hopper_sdf(params: RobotParams) -> str:
+    """The packaged SDF with ``params`` written into it."""
+    text = resources.files("drakeslip.multibody").joinpath(SDF_FILE).read_text()
+    root = ET.fromstring(text.replace("drake:", "drake__"))   # the drake: prefix has no declared namespace
+    model = root.find("model")
+    links = {link.get("name"): link for link in model.findall("link")}
+    joints = {joint.get("name"): joint for joint in model.findall("joint")}
+    _set(links["body"], "inertial/mass", params.slip.mass)
+    _set(links["body"], "inertial/inertia/iyy", params.body_pitch_inertia)
+    _set(links["leg"], "inertial/mass", params.leg_mass)
+    _set(links["foot"], "inertial/mass", params.foot_mass)
+    _set(links["foot"], "visual[@name='foot_visual']/geometry/sphere/radius", params.foot_radius)
+    _set(links["foot"], "collision/geometry/sphere/radius", params.foot_radius)
+    props = links["foot"].find("collision/drake__proximity_properties")
+    _set(props, "drake__point_contact_stiffness", params.contact_stiffness)
+    _set(props, "drake__hunt_crossley_dissipation", params.contact_dissipation)
+    for tag in ("drake__mu_dynamic", "drake__mu_static"):
+        _set(props, tag, params.slip.friction)
+    _set(joints["hip"], "axis/limit/effort", params.hip_torque_limit)
+    _set(joints["hip"], "axis/limit/velocity", params.hip_speed_limit)
+    leg = joints["leg_spring"]
+    _set(leg, "axis/limit/lower", params.bottom_extension)
+    _set(leg, "axis/limit/upper", params.rest_extension)
+    _set(leg, "axis/limit/effort", params.leg_force_limit)
+    _set(leg, "axis/dynamics/damping", params.leg_damping)
+    return ET.tostring(root, encoding="unicode").replace("drake__", "drake:")
+
+
+@dataclass(frozen=True)
+class HopperParts:
+    """The hopper's elements in its plant. After the plant is finalized, ``layout`` gives the indices of
+    (x, z, pitch, hip, leg) in the plant's positions and velocities and the actuation order."""
+
+    model: object
+    body: object
+    foot: object
+    base: object
+    hip: object
+    leg: object
+
+    def layout(self, plant) -> "StateLayout":
+        q = (self.base.position_start(), self.base.position_start() + 1, self.base.position_start() + 2,
+             self.hip.position_start(), self.leg.position_start())
+        v = (self.base.velocity_start(), self.base.velocity_start() + 1, self.base.velocity_start() + 2,
+             self.hip.velocity_start(), self.leg.velocity_start())
+        hip_actuator = plant.GetJointActuatorByName("hip", self.model)
+        leg_actuator = plant.GetJointActuatorByName("leg_spring", self.model)
+        order = (int(hip_actuator.input_start()), int(leg_actuator.input_start()))
+        return StateLayout(q, tuple(plant.num_positions() + i for i in v), order, plant.num_actuators())
+
+
+@dataclass(frozen=True)
+class StateLayout:
+    """Indices of (x, z, pitch, hip, leg) in the plant state's positions ``q`` and velocities ``v`` (both
+    into the full state vector) and of (hip, leg) in the actuation vector of ``n_actuators``."""
+
+    q: tuple
+    v: tuple
+    actuation: tuple
+    n_actuators: int
+
+    def split(self, state) -> tuple:
+        """(q, v): each (x, z, pitch, hip, leg) and its rates, from a plant state vector."""
+        state = np.asarray(state)
+        return state[list(self.q)], state[list(self.v)]
+
+
+def add_hopper(plant, params: RobotParams) -> HopperParts:
+    """Parse the hopper into ``plant`` (not yet finalized) and add its planar base and leg spring."""
+    from pydrake.math import RigidTransform, RotationMatrix
+    from pydrake.multibody.parsing import Parser
+    from pydrake.multibody.tree import FixedOffsetFrame, PlanarJoint, PrismaticSpring
+
+    (model,) = Parser(plant, "hopper").AddModelsFromString(hopper_sdf(params), "sdf")
+    body = plant.GetBodyByName("body", model)
+    # the joint's frame F has x along world x and y along world z, so it turns about -y (see the module doc)
+    to_plane = RigidTransform(RotationMatrix.MakeXRotation(math.pi / 2))
+    frame_w = plant.AddFrame(FixedOffsetFrame("plane_world", plant.world_frame(), to_plane))
+    frame_b = plant.AddFrame(FixedOffsetFrame("plane_body", body.body_frame(), to_plane))
+    base = plant.AddJoint(PlanarJoint("base", frame_w, frame_b, np.zeros(3)))
+    leg = plant.GetJointByName("leg_spring", model)
+    plant.AddForceElement(PrismaticSpring(leg, params.rest_extension, params.slip.stiffness))
+    return HopperParts(model, body, plant.GetBodyByName("foot", model), base, plant.GetJointByName("hip", model),
+                       leg)

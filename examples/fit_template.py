@@ -1,0 +1,78 @@
+"""Fit the SLIP template to the multibody robot and write it as a hopper file the planners plan for.
+
+    python3 examples/fit_template.py --cases 6 --out drakeslip/multibody/template.json
+
+Runs --cases cases of each suite (every --every-th) in the robot's closed loop with step@robust, records every
+hop (apex, foothold -> next apex), fits the template's leg length and stiffness to the robot's apex-to-apex map
+(drakeslip/multibody/fit.py), prints the per-hop prediction errors (median and 90th percentile in x, z, xdot) of
+the paper's template and of the fitted one, on the hops fitted and on held-out hops (the next cases), and writes
+the fitted template (drakeslip-hopper/1; the multibody backend's planners plan for the one at the default
+--out). Exit status: 0 written, 1 no hops recorded, 2 bad input.
+"""
+from __future__ import annotations
+
+import json
+import sys
+
+from drakeslip.jobs import cli
+
+OK, FAILED = 0, 1
+
+
+def collect_hops(cases, goal_x: float, params) -> list:
+    """Every completed hop of each case run in the robot's closed loop (noiseless) with step@robust."""
+    from drakeslip import ApexState
+    from drakeslip.multibody.fit import hops_from_log
+    from planners.drake_system import run_closed_loop
+
+    hops = []
+    for case in cases:
+        result = run_closed_loop("step@robust", case, goal_x, params, trajectory=True)
+        hops += hops_from_log(result["log"], ApexState(*map(float, case.apex)), case.terrain)
+    return hops
+
+
+def main(argv=None) -> int:
+    ap = cli.ArgumentParser(__doc__)
+    ap.add_argument("--suites", default="suites/ditch.json,suites/step.json", help="suites whose cases to run")
+    ap.add_argument("--cases", type=cli.positive_int, default=6, help="cases of each suite to fit on")
+    ap.add_argument("--held-out", type=cli.positive_int, default=3, help="further cases of each suite to test on")
+    ap.add_argument("--every", type=cli.positive_int, default=23, help="take every K-th case of a suite")
+    ap.add_argument("--out", type=cli.output_file(".json"), default="drakeslip/multibody/template.json",
+                    help="the hopper file to write")
+    args = ap.parse_args(argv)
+
+    from dataclasses import replace
+
+    from drakeslip.hopper_file import Hopper, save_hopper
+    from drakeslip.multibody.fit import FIT_NAME, errors, fit, summary
+    from drakeslip.params import SlipParams
+    from planners.formats.suite import load_suite
+
+    try:
+        suites = [load_suite(path) for path in args.suites.split(",")]
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    train, test = [], []
+    for suite in suites:
+        cases = suite.cases[::args.every]
+        params = SlipParams(friction=suite.friction)
+        train += collect_hops(cases[:args.cases], suite.goal_x, params)
+        test += collect_hops(cases[args.cases:args.cases + args.held_out], suite.goal_x, params)
+        print(f"{suite.name}: {len(train)} hops to fit, {len(test)} held out so far", flush=True)
+    if not train:
+        print("no hops recorded")
+        return FAILED
+    paper = SlipParams()
+    fitted = fit(train, paper)
+    report = {"paper": {"fit": summary(errors(train, paper)), "held_out": summary(errors(test, paper))},
+              "fitted": {"fit": summary(errors(train, fitted)), "held_out": summary(errors(test, fitted))},
+              "params": {"leg_length": fitted.leg_length, "stiffness": fitted.stiffness}}
+    print(json.dumps(report, indent=1))
+    save_hopper(Hopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)
+    print(f"wrote {args.out}")
+    return OK
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,112 @@
+"""The multibody hopper: its model and terrain geometry, the closed loop crossing a ditch, the controller's energy
+injection mattering, and the planner system in a diagram built by hand."""
+import importlib.util
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+
+import drakeslip as ds
+from drakeslip.multibody.controller import apex_energy, touchdown_angle
+from drakeslip.multibody.robot import RobotParams, hopper_sdf
+from drakeslip.multibody.terrain import terrain_runs
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _example():
+    spec = importlib.util.spec_from_file_location("hop_multibody", ROOT / "examples" / "hop_multibody.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_terrain_boxes_have_the_maps_heights_and_edges():
+    heights = np.array([0.0, 0.0, -1.0, -1.0, 0.1, 0.1, 0.1])
+    runs = terrain_runs(ds.Terrain(heights, 0.1, 0.0))
+    assert [r[2] for r in runs] == [0.0, -1.0, 0.1]
+    assert runs[0][1] == pytest.approx(0.2) and runs[1] == pytest.approx((0.2, 0.4, -1.0))
+    assert runs[2][0] == pytest.approx(0.4) and runs[0][0] < -10 and runs[2][1] > 10
+
+
+def test_the_model_file_takes_the_parameters():
+    text = hopper_sdf(RobotParams(body_pitch_inertia=0.4, foot_mass=0.5, slip=ds.SlipParams(friction=0.6)))
+    assert "<iyy>0.4</iyy>" in text and "<mass>0.5</mass>" in text and "<drake:mu_dynamic>0.6<" in text
+    with pytest.raises(ValueError, match="foot_radius"):
+        RobotParams(foot_radius=0.2)
+
+
+def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
+    angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, 0.47, 0.03, 9.81)
+    t = np.sqrt(2 * (0.8 - 0.47 * np.cos(angle) - 0.03) / 9.81)
+    assert 1.5 * t + 0.47 * np.sin(angle) == pytest.approx(0.6, abs=1e-6)
+
+
+def _ditches_case():
+    return SimpleNamespace(id="two-ditches", terrain=_example().two_ditches(), apex=(0.0, 0.62, 1.5))
+
+
+def test_a_multibody_case_crosses_short_ditches():
+    from planners.drake_system import run_closed_loop
+
+    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams())
+    assert result["success"], result["what"]
+    assert result["final_x"] >= 4.0 and result["hops"] >= 5 and result["max_pitch"] < 0.5
+
+
+def test_without_energy_injection_the_same_case_runs_out_of_energy():
+    from planners.drake_system import run_closed_loop
+
+    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams(), inject_energy=False,
+                             trajectory=True)
+    assert not result["success"] and result["final_x"] < 4.0
+    energies = [apex_energy(a.z, a.xdot, 9.81) for a in result["log"].apexes]
+    start = apex_energy(0.62, 1.5, 9.81)
+    assert len(energies) >= 3 and energies[-1] < start - 1.0 and all(np.diff(energies[:4]) < 0)
+
+
+def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
+    planner_system, x, seconds, apexes = _example().run("step@robust", 2.0, seconds=2.5)
+    assert apexes >= 3 and len(planner_system.records) == apexes + 1   # the start is an apex too
+    assert all(record["success"] for record in planner_system.records)
+    xs = [record["apex"][0] for record in planner_system.records]
+    assert xs == sorted(xs)
+
+
+def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
+    from drakeslip.multibody.fit import Hop, errors, fit, predict
+
+    truth = ds.SlipParams(leg_length=0.48, stiffness=3600.0)
+    starts = [(0.0, z, v) for z in (0.75, 0.9) for v in (1.0, 1.5, 2.0)]
+    hops = [Hop(a, a[0] + 0.12 * a[2] + 0.1, 0.0, (0.0, 0.0, 0.0)) for a in starts]
+    hops = [Hop(h.apex, h.foothold, 0.0, tuple(p)) for h, p in zip(hops, predict(hops, truth))]
+    fitted = fit(hops, ds.SlipParams())
+    assert fitted.leg_length == pytest.approx(0.48, abs=2e-3) and fitted.stiffness == pytest.approx(3600, rel=0.02)
+    assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])
+
+
+def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
+    """The replay shows the robot's own geometry (blue body, dark upper leg, red foot) over the terrain."""
+    from test_meshcat_replay import require_browser, screenshot
+
+    require_browser()
+    from PIL import Image
+
+    from drakeslip.multibody.replay import HEADER_PX, write_robot_replay
+    from planners.drake_system import run_closed_loop
+
+    case = _ditches_case()
+    result = run_closed_loop("step@robust", case, 1.0, ds.SlipParams(), trajectory=True)
+    assert result["success"], result["what"]
+    page = write_robot_replay(result["log"], case.terrain, tmp_path / "robot.html", title="robot over a ditch")
+    text = page.read_text()
+    assert "<title>robot over a ditch</title>" in text and "no failure" in text
+    screenshot(page, tmp_path / "robot.png", budget_ms=6000)
+    image = np.asarray(Image.open(tmp_path / "robot.png").convert("RGB")).astype(int)[HEADER_PX + 2:]
+    r, g, b = image[..., 0], image[..., 1], image[..., 2]
+    body = ((b > r + 60) & (b > g + 30)).sum()
+    foot = ((r > g + 60) & (r > b + 60)).sum()
+    terrain = ((r > b + 15) & (g > b + 5) & (r < 200)).sum()
+    dark = ((r < 60) & (g < 60) & (b < 60)).sum()
+    assert body > 500 and foot > 30 and terrain > 0.05 * r.size and dark > 50, (body, foot, terrain, dark)
