@@ -92,12 +92,13 @@ def _conv_relu(x, w, b):
     padded[:, half:half + n] = x
     y = np.zeros((n_out, n))
     for o in range(n_out):
+        row = y[o]
         for i in range(n_in):
-            for c in range(n):
-                acc = y[o, c]
-                for t in range(taps):
-                    acc += w[o, i, t] * padded[i, c + t]
-                y[o, c] = acc
+            for t in range(taps):
+                wt = w[o, i, t]
+                shifted = padded[i, t:t + n]
+                for c in range(n):
+                    row[c] += wt * shifted[c]
         for c in range(n):
             y[o, c] = max(y[o, c] + b[o], 0.0)
     return y
