@@ -2,9 +2,15 @@
 
 The names below load their module on first use, so ``import drakeslip`` does not start pydrake, numba or torch.
 """
-from drakeslip.params import SlipParams
-from drakeslip.state import ApexState, FailureMode, StepResult
-from drakeslip.terrain import TERRAIN_FAMILIES, Terrain, ditch_world, mixed_world, step_world
+from pathlib import Path
+
+from drakeslip.compiled_cache import clear_when_sources_change
+
+clear_when_sources_change(Path(__file__).parent, [Path(__file__).parent])  # before any compiled function loads
+
+from drakeslip.params import SlipParams  # noqa: E402
+from drakeslip.state import ApexState, FailureMode, StepResult  # noqa: E402
+from drakeslip.terrain import TERRAIN_FAMILIES, Terrain, ditch_world, mixed_world, step_world  # noqa: E402
 
 _LAZY = {
     "step": "drakeslip.stepmap", "step_batch": "drakeslip.stepmap", "BatchStepResult": "drakeslip.stepmap",
