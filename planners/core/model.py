@@ -3,10 +3,10 @@
 A node's first-step distribution (``conditioning="apex"``: the model restarted from the node's own apex and window)
 is the model's CNN encoding of the window and the bin under the body, an LSTM step from the state ``g0`` gives for
 the apex, and the head. The encoding and the first layer's input gates depend only on the window and that bin,
-which many nodes share (a search's nodes lie on a few metres of one terrain), so they are computed once per
-(window, bin) and kept for the rest of the search; a node costs the apex's initial state, the recurrent products
-and the head. Weights are the trained model's (``ModelArrays.of``), the arithmetic float64 as in
-planners/learned/inference.py (tests/test_core.py checks both against torch)."""
+which nodes may share, so they are computed once per (window, bin) and kept for the rest of the search; a node
+costs the apex's initial state, the recurrent products and the head, the head only for the bins of the node's
+candidates where the search needs no more. Weights are the trained model's (``ModelArrays``), the arithmetic
+float64 as in planners/learned/inference.py (tests/test_core.py checks it against torch)."""
 from __future__ import annotations
 
 import math
@@ -50,6 +50,13 @@ def affine(x, w, b, out):
         out[j] += b[j]
 
 
+def stored(matrix: np.ndarray) -> np.ndarray:
+    """A large weight matrix as float32 when that holds it exactly (a model trained in float32): half the memory a
+    node's products stream through, the same float64 arithmetic (each weight converts exactly)."""
+    single = np.ascontiguousarray(matrix, dtype=np.float32)
+    return single if np.array_equal(single.astype(np.float64), matrix) else np.ascontiguousarray(matrix)
+
+
 class ModelArrays:
     """A ``FootstepModel``'s weights for compiled code, each layer's matrix stored (inputs, outputs): ``astuple``
     gives (g0_w, g0_b, conv1_w (out, in, taps), conv1_b, conv2_w, conv2_b, fc_w, fc_b, the first layer's w_ih
@@ -63,13 +70,12 @@ class ModelArrays:
         layers = range(c.layers)
         self.arrays = (np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy(), w["cnn.0.weight"].copy(),
                        w["cnn.0.bias"].copy(), w["cnn.2.weight"].copy(), w["cnn.2.bias"].copy(),
-                       np.ascontiguousarray(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(),
-                       np.ascontiguousarray(w["lstm.weight_ih_l0"].T),
-                       np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers[1:]]).reshape(c.layers - 1, c.hidden,
-                                                                                         4 * c.hidden),
-                       np.stack([w[f"lstm.weight_hh_l{k}"].T for k in layers]),
+                       stored(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(), stored(w["lstm.weight_ih_l0"].T),
+                       stored(np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers[1:]]).reshape(
+                           c.layers - 1, c.hidden, 4 * c.hidden)),
+                       stored(np.stack([w[f"lstm.weight_hh_l{k}"].T for k in layers])),
                        np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"] for k in layers]),
-                       np.ascontiguousarray(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells))
+                       stored(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells))
 
     def astuple(self) -> tuple:
         return self.arrays
@@ -86,12 +92,13 @@ def _conv_relu(x, w, b):
     padded[:, half:half + n] = x
     y = np.zeros((n_out, n))
     for o in range(n_out):
+        row = y[o]
         for i in range(n_in):
-            for c in range(n):
-                acc = y[o, c]
-                for t in range(taps):
-                    acc += w[o, i, t] * padded[i, c + t]
-                y[o, c] = acc
+            for t in range(taps):
+                wt = w[o, i, t]
+                shifted = padded[i, t:t + n]
+                for c in range(n):
+                    row[c] += wt * shifted[c]
         for c in range(n):
             y[o, c] = max(y[o, c] + b[o], 0.0)
     return y

@@ -19,6 +19,7 @@ by the functions that use them, so importing this module is light.
 """
 from __future__ import annotations
 
+import functools
 import hashlib
 import json
 import os
@@ -77,6 +78,15 @@ def instance(cfg: DatasetConfig, i: int):
     return family, terrain, apex
 
 
+@functools.cache
+def shared_controller():
+    """The default step-length controller, loaded once per process: every instance builds its own planner, and
+    loading the weights costs more than a Step-space search on the compiled core."""
+    from drakeslip.controller import StepLengthController
+
+    return StepLengthController.load_default()
+
+
 def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
     """The search of instance i, with the dataset's friction; returns (SearchResult, the x its sequences aim to
     pass)."""
@@ -89,10 +99,12 @@ def search_tree(cfg: DatasetConfig, i: int, apex, terrain):
         planner = AngleSpacePlanner(branching=cfg.branching, fallback=(), n_sequences=cfg.goal_sequences,
                                     cost_weights=cfg.cost_weights, seed=cfg.seed * 7919 + i, **budget)
     elif cfg.subcells > 1:
-        planner = StepSpacePlanner(spacing=terrain.cell / cfg.subcells, fallback_spacing=(),
-                                   n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
+        planner = StepSpacePlanner(controller=shared_controller(), spacing=terrain.cell / cfg.subcells,
+                                   fallback_spacing=(), n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights,
+                                   **budget)
     else:
-        planner = StepSpacePlanner(n_sequences=cfg.goal_sequences, cost_weights=cfg.cost_weights, **budget)
+        planner = StepSpacePlanner(controller=shared_controller(), n_sequences=cfg.goal_sequences,
+                                   cost_weights=cfg.cost_weights, **budget)
     return planner.search(apex, terrain, goal_x, params), planner.problem(apex, terrain, goal_x, params, 0.0).target_x
 
 
