@@ -3,7 +3,8 @@ drawn for each (``planners.formats.suite_draw.draw_suite``), the planners evalua
 loop (``verification.evaluation``) and held to three bars:
 
 * ``step`` crosses at least 95 % of the ditch cases without noise;
-* ``step@robust`` at least 90 % of them under ``realistic`` noise (replanning at every apex, as its preset runs);
+* ``step@robust`` at least 90 % of them under ``realistic`` noise, its sizes in the hopper's units (replanning at
+  every apex, as its preset runs);
 * ``lstm-guided`` crosses within 5 points of ``step`` without noise, with fewer step-map calls per plan.
 
 The other families (step, mixed) are reported for ``step`` and ``lstm-guided`` without a bar. The hoppers: mass
