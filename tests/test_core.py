@@ -54,19 +54,6 @@ def test_compiled_controller_is_the_controllers_to_the_bit():
         assert np.array_equal(aim_rows(apexes, footholds, np.zeros(n), net), expected)
 
 
-def python_grid_search(planner, problem, spacing, robust):
-    """Step-space's search in Python (``best_first`` with numpy expansions), as it runs on the Drake step map."""
-    def expand(tree, node):
-        apex = tree.apex[node]
-        x_l = planner.candidates(apex, problem.terrain, problem.params, spacing)
-        theta = planner.aim(apex, x_l, problem.terrain, problem.params)
-        ok, apexes = planner.simulate(problem, apex, x_l, theta)
-        return planner.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
-
-    return best_first(problem, expand, planner.cost_weights, planner.n_sequences, planner.search_budget(robust),
-                      planner.admission(problem, robust))
-
-
 def same_search(a, b):
     """The same tree, node for node (the root's angle and foothold are NaN)."""
     ta, tb = a.tree, b.tree
@@ -81,7 +68,7 @@ def test_compiled_grid_search_makes_the_python_searchs_tree(label):
     for case in CASES:
         problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
         robust, spacing = planner.attempt_settings(problem.units)[0]
-        assert same_search(python_grid_search(planner, problem, spacing, robust),
+        assert same_search(planner.numpy_search(problem, spacing, robust),
                            planner._search(problem, spacing, robust)), case.id
 
 
@@ -92,10 +79,8 @@ def test_compiled_sampled_search_makes_the_numpy_searchs_tree(label):
     for case in CASES:
         problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
         robust = planner.robustness_levels()[0]
-        planner.core_model = None   # the numpy search
-        numpy_search = planner._search(problem, planner.attempts[0], robust)
-        planner.core_model = model
-        assert same_search(numpy_search, planner._search(problem, planner.attempts[0], robust)), case.id
+        assert same_search(planner.numpy_search(problem, planner.attempts[0], robust),
+                           planner._search(problem, planner.attempts[0], robust)), case.id
 
 
 def test_a_core_plan_says_where_its_time_went():

@@ -152,6 +152,11 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             return sampled_search(problem, settings, window, self.core_model, np.random.default_rng(self.seed),
                                   1 if self.lazy else branching, robust, self.controller.for_params(problem.params),
                                   self.cost_weights, self.n_sequences, self.search_budget(robust), problem.timing)
+        return self.numpy_search(problem, branching, robust)
+
+    def numpy_search(self, problem, branching, robust=None):
+        """The search in Python (``best_first`` expanding with the sampler, ``aim`` and ``simulate``): the Drake
+        step map's, the path-conditioned model's, and the reference whose trees the compiled core makes."""
         sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
         terrain, params = problem.terrain, problem.params
         rng = np.random.default_rng(self.seed)

@@ -157,6 +157,11 @@ class StepSpacePlanner(Planner):
             return grid_search(problem, self.core_settings(problem, spacing), robust,
                                self.controller.for_params(problem.params), self.cost_weights, self.n_sequences,
                                self.search_budget(robust), problem.timing)
+        return self.numpy_search(problem, spacing, robust)
+
+    def numpy_search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
+        """The search in Python (``best_first`` expanding with ``candidates``, ``aim`` and ``simulate``): the Drake
+        step map's, and the reference whose trees the compiled core makes node for node."""
         terrain, params = problem.terrain, problem.params
 
         def expand(tree, node) -> Children:
