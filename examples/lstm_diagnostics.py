@@ -193,6 +193,7 @@ def search(cases, goal_x, params, model):
                "LSTM-guided, lazy, apex": type("CountingGuided", (Counting, LSTMGuidedPlanner), {})(
                    model=model, lazy=True, conditioning="apex")}
     for label, planner in counted.items():
+        planner.tried = planner.worked = 0   # not the core's warm-up on a flat terrain when it was built
         for case in cases:
             planner.plan(case.apex, case.terrain.perceived(case.apex.x), goal_x, params)
         print(f"   {label:<26} {100 * planner.worked / max(planner.tried, 1):5.1f} % of {planner.tried}")
