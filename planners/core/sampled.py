@@ -18,14 +18,11 @@ from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPA
                                 WINDOW_END, aim_candidates, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted
-from planners.core.tree import add_children, heap_push, new_tree
+from planners.core.tree import EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, heap_push, new_tree
 
 # fields of the window settings tuple (``window_settings`` in planners/core/search.py)
 N_CELLS, ANCHOR, S0, LENGTH, SPEED, DITCH_FLOOR, SUBCELLS, MASK_DITCHES, TEMPERATURE, FLOOR = range(10)
-KEY_STRIDE = 1 << 20
-# stop codes and the unlimited step-map budget, as planners/core/search.py names them
-GOALS, EXHAUSTED, NODES, ODE_CALLS, TIME = range(5)
-NO_LIMIT = -1  # a (window start, bin under the body) pair's key: start * KEY_STRIDE + bin
+KEY_STRIDE = 1 << 20  # a (window start, bin under the body) pair's key: start * KEY_STRIDE + bin
 
 
 @njit(cache=True)
@@ -156,14 +153,9 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     node = 0
     stop = EXHAUSTED
     while True:
-        if expansions >= max_nodes:
-            stop = NODES
-            break
-        if max_ode_calls != NO_LIMIT and ode_calls >= max_ode_calls:
-            stop = ODE_CALLS
-            break
-        if now() >= deadline:
-            stop = TIME
+        spent = budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline)
+        if spent != GO_ON:
+            stop = spent
             break
         if node != FAILED_CHECK:
             x, z, v = tree[3][node, 0], tree[3][node, 1], tree[3][node, 2]

@@ -11,12 +11,12 @@ from numba.typed import Dict
 from planners.base import Problem
 from planners.core.clock import N_SLOTS, now
 from planners.core.grid import expand_grid
-from planners.core.sampled import EXHAUSTED, GOALS, NO_LIMIT, NODES, ODE_CALLS, TIME, sampled_best_first
+from planners.core.sampled import sampled_best_first
 from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted, robust_arrays
-from planners.core.tree import add_children, new_tree
+from planners.core.tree import EXHAUSTED, GO_ON, GOALS, NO_LIMIT, add_children, budget_stop, new_tree
 from planners.search.tree import FRICTION_MARGIN, REACH_ANGLES, REEXPAND_PENALTY, SearchResult, SearchTree
 
-STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")  # by the stop codes of planners/core/sampled.py
+STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")  # by the stop codes of planners/core/tree.py
 
 
 @njit(cache=True)
@@ -37,14 +37,9 @@ def grid_best_first(root, terr, p, net, sin_a, cos_a, s, rob, target_x, weights,
     node = 0
     stop = EXHAUSTED
     while True:
-        if expansions >= max_nodes:
-            stop = NODES
-            break
-        if max_ode_calls != NO_LIMIT and ode_calls >= max_ode_calls:
-            stop = ODE_CALLS
-            break
-        if now() >= deadline:
-            stop = TIME
+        spent = budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline)
+        if spent != GO_ON:
+            stop = spent
             break
         if node != FAILED_CHECK:
             a = tree[3][node]

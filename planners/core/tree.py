@@ -10,6 +10,26 @@ import math
 import numpy as np
 from numba import njit
 
+from planners.core.clock import now
+
+# stop codes (planners/core/search.py names them), "go on", and the unlimited step-map budget
+GOALS, EXHAUSTED, NODES, ODE_CALLS, TIME = range(5)
+GO_ON = -1
+NO_LIMIT = -1
+
+
+@njit(cache=True)
+def budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline):
+    """The search's termination conditions, checked before each expansion: the stop code of the first budget
+    spent (nodes, step-map calls, the wall-clock deadline), or GO_ON."""
+    if expansions >= max_nodes:
+        return NODES
+    if max_ode_calls != NO_LIMIT and ode_calls >= max_ode_calls:
+        return ODE_CALLS
+    if now() >= deadline:
+        return TIME
+    return GO_ON
+
 
 @njit(cache=True)
 def new_tree(root_x, root_z, root_xdot, capacity):
