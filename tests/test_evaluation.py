@@ -76,7 +76,7 @@ def test_evaluate_cli_writes_the_results_format_and_resumes(tmp_path):
         assert block["config"] == ClosedLoopConfig().to_dict()   # the protocol: noiseless, the paper's period
         assert set(block) == {"config", "weights", "success_rate", "success_interval", "ode_calls_mean", "ode_calls_median",
                               "t_plan_mean_s", "t_plan_median_s", "nodes_expanded_mean", "footholds_mean",
-                              "time_limited_calls", "cases"}
+                              "time_limited_calls", "timing_mean_s", "cases"}
         assert block["success_interval"][0] <= block["success_rate"] <= block["success_interval"][1]
         assert len(block["cases"]) == 2
         for case in block["cases"]:
