@@ -5,7 +5,8 @@ controller from the apexes they are told and fly there (``fly_particles``); a no
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import njit, types
+from numba.typed import Dict
 
 from drakeslip.dynamics import height_at
 from drakeslip.fast_controller import aim_rows
@@ -32,6 +33,18 @@ def robust_arrays(robustness, problem) -> tuple:
             particles.angle_errors, particles.world.astype(np.int64), particles.shift.astype(np.float64), w.params,
             w.heights, w.x0, float(particles.clearance), float(particles.landing), float(particles.edge_margin),
             float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN)
+
+
+
+@njit(cache=True)
+def root_flights(rob):
+    """(node -> its particles' row in ``flights``, the particles' states by row), holding the root's particles
+    where the robust check flies any (depth > 0); it grows as nodes pass the check."""
+    flight_of, flights = Dict.empty(types.int64, types.int64), np.empty((16,) + rob[STATES].shape)
+    if rob[DEPTH] > 0:
+        flight_of[0] = 0
+        flights[0] = rob[STATES]
+    return flight_of, flights
 
 
 @njit(cache=True)

@@ -17,7 +17,7 @@ from planners.core.clock import CONTROLLER, MODEL, N_SLOTS, STEP_MAP, now
 from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPACING, TOLERANCE, UNTIL,
                                 WINDOW_END, aim_candidates, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
-from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted
+from planners.core.robust import FAILED_CHECK, pop_admitted, root_flights
 from planners.core.tree import EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, heap_push, new_tree
 
 # fields of the window settings tuple (``window_settings`` in planners/core/search.py)
@@ -146,10 +146,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     cand_x, cand_theta, cand_order = np.empty(1024), np.empty(1024), np.empty(1024, np.int64)
     n_cand = 0
     out = np.empty(N_OUT)
-    flight_of, flights = Dict.empty(types.int64, types.int64), np.empty((16,) + rob[STATES].shape)
-    if rob[DEPTH] > 0:
-        flight_of[0] = 0
-        flights[0] = rob[STATES]
+    flight_of, flights = root_flights(rob)
     node = 0
     stop = EXHAUSTED
     while True:

@@ -5,14 +5,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
-from numba.typed import Dict
+from numba import njit
 
 from planners.base import Problem
-from planners.core.clock import N_SLOTS, now
+from planners.core.clock import N_SLOTS
 from planners.core.grid import expand_grid
 from planners.core.sampled import sampled_best_first
-from planners.core.robust import DEPTH, FAILED_CHECK, STATES, pop_admitted, robust_arrays
+from planners.core.robust import FAILED_CHECK, pop_admitted, robust_arrays, root_flights
 from planners.core.tree import EXHAUSTED, GO_ON, GOALS, NO_LIMIT, add_children, budget_stop, new_tree
 from planners.search.tree import FRICTION_MARGIN, REACH_ANGLES, REEXPAND_PENALTY, SearchResult, SearchTree
 
@@ -30,10 +29,7 @@ def grid_best_first(root, terr, p, net, sin_a, cos_a, s, rob, target_x, weights,
     goals, expanded = np.empty(n_sequences, np.int64), np.empty(max_nodes, np.int64)
     n_goals = ode_calls = expansions = n_expanded = 0  # expansions also count nodes that failed the check
     slots = np.zeros(N_SLOTS)
-    flight_of, flights = Dict.empty(types.int64, types.int64), np.empty((16,) + rob[STATES].shape)
-    if rob[DEPTH] > 0:
-        flight_of[0] = 0
-        flights[0] = rob[STATES]
+    flight_of, flights = root_flights(rob)
     node = 0
     stop = EXHAUSTED
     while True:
