@@ -15,6 +15,8 @@ from drakeslip.stepmap import BACKENDS
 from drakeslip.units import HopperUnits, units_of
 
 from planners.base import Plan, Planner, Problem
+from planners.search.pruned import MAX_NODES as PRUNED_NODES
+from planners.search.pruned import pruned_search
 from planners.search.robust import Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
@@ -50,6 +52,12 @@ class StepSpacePlanner(Planner):
     sequence alone; each robustness level searches the coarse grid within its own node budget, then the next
     level, then (``fallback_nominal``) the nominal search; the plan's message says which found it.
 
+    When every search finds nothing, the last stage (``planners.search.pruned``) searches on from the start with the
+    oracle's pruning (the energy graph, merged apexes, progress minus risk) for up to ``pruned_nodes`` expansions
+    (default PRUNED_NODES; 0 skips it): starts with little energy before high steps have plans of many slow hops that
+    the nominal order does not reach. It runs on the fast step map, after the nominal search (not after robust levels
+    alone: ``fallback_nominal=False``); the plan's message then says "found by pruned search".
+
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
     calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
@@ -60,8 +68,12 @@ class StepSpacePlanner(Planner):
                  tolerance: float | None = None, fallback_spacing: tuple | None = None, n_sequences: int = 1,
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, step_map: str = "fast",
-                 robustness: Robustness | dict | None = None, fallback_nominal: bool = True, **budget):
+                 robustness: Robustness | dict | None = None, fallback_nominal: bool = True,
+                 pruned_nodes: int = PRUNED_NODES, **budget):
         super().__init__(**budget)
+        if isinstance(pruned_nodes, bool) or not isinstance(pruned_nodes, int) or pruned_nodes < 0:
+            raise ValueError(f"pruned_nodes must be a non-negative integer (0: no pruned stage), got {pruned_nodes!r}")
+        self.pruned_nodes = pruned_nodes
         self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
         if self.robustness is not None and not isinstance(self.robustness, Robustness):
             raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
@@ -248,7 +260,19 @@ class StepSpacePlanner(Planner):
     def _plan(self, problem: Problem) -> Plan:
         return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s:g} m",
                                              lambda s=s, r=r: self._search(problem, s, r))
-                                            for r, s in self.attempt_settings(problem.units)])
+                                            for r, s in self.attempt_settings(problem.units)]
+                            + self.pruned_stage(problem))
+
+    def pruned_stage(self, problem: Problem) -> list:
+        """The last attempt, ("pruned search", thunk), where the planner runs one (see the class doc): [] without."""
+        if not self.pruned_nodes or self.step_map != "fast" or self.robustness_levels()[-1] is not None:
+            return []
+
+        def attempt():
+            settings = self.core_settings(problem, self.spacings(problem.units)[0])
+            return pruned_search(problem, settings, self.controller.for_params(problem.params), self.pruned_nodes)
+
+        return [("pruned search", attempt)]
 
 
 @functools.cache

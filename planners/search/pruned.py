@@ -1,0 +1,122 @@
+"""The planners' last stage: Step-space's expansion searched the way the oracle searches (verification/model_check.py),
+from a start where the planner's own searches found no sequence.
+
+The nominal best-first search ranks nodes by progress, speed and isolation and stops after its node budget: enough
+wherever a plan is easy to find. A start with little energy before high steps can still have a plan that this order
+does not reach in time: a run of slow, high hops (often 20 or more) that the speed term ranks last. This stage
+searches on from the start with the oracle's pruning:
+
+* the energy graph (``planners.search.energy_graph``): an apex whose next touchdown cannot be on a cell from which
+  the target can be reached at all is dropped, and a start from which the graph has no path at all is refused
+  without a search ("unreachable"). Both are sound: no plan is lost;
+* merged apexes: the SLIP is conservative, so an apex is (x, xdot), and apexes in one cell of ``MERGE_X`` by
+  ``MERGE_XDOT`` are expanded once, from the first arrival with the least risk;
+* progress minus risk: the node farthest ahead is popped first, less ``RISK_COST`` per slow hop on its path (one to an
+  apex slower than the planner's minimum speed; the stage keeps apexes down to ``MIN_SPEED``): low-energy starts need
+  slow hops to climb, which a queue of the fast apexes first reaches only after many more nodes;
+
+up to ``max_nodes`` expansions (the planners' ``pruned_nodes`` option, ``MAX_NODES`` by default) or the planning call's
+deadline. The children are Step-space's (``planners.core.grid.expand_grid``: grid footholds aimed by the controller
+and flown by the step map, away from edges, landing within the tolerance), so a plan found here is one the controller
+hits, as every other plan is. Lengths and speeds are the paper's hopper's, used in the hopper's units.
+"""
+from __future__ import annotations
+
+import heapq
+import time
+
+import numpy as np
+
+from planners.base import Problem
+from planners.search.energy_graph import CellGraph, Coreach
+from planners.search.tree import Children, SearchResult, SearchTree
+
+# Node budget of the stage: a start whose plan the nominal search misses needs up to tens of thousands of nodes
+# (the oracle's hardest witnesses took 115k-150k on its finer angle grid); 20,000 bounds a start with no plan to
+# a few seconds on one core.
+MAX_NODES = 20_000
+MERGE_X, MERGE_XDOT = 0.01, 0.01   # [m], [m/s]: the oracle's coarse merge cells
+MIN_SPEED = 0.1     # [m/s]: slower apexes are dropped (the oracle's floor)
+RISK_COST = 0.3     # [m] of progress the queue takes off per slow hop on a node's path (the oracle's)
+
+
+def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes: int = MAX_NODES) -> SearchResult:
+    """The stage from ``problem``'s start, with Step-space's grid ``settings`` (``StepSpacePlanner.core_settings``)
+    and ``controller``; stops at the first sequence whose foothold passes the target (or whose hop lands past the
+    window), an empty queue ("exhausted"), no path in the energy graph ("unreachable"), ``max_nodes`` expansions or
+    the problem's deadline. Adds the controller's and the step map's time to ``problem.timing``."""
+    from planners.core.clock import N_SLOTS   # the compiled core, loaded on first use: imports stay light
+    from planners.core.grid import MIN_SPEED as MIN_SPEED_FIELD
+    from planners.core.grid import expand_grid
+    from planners.core.search import reach_angles, terrain_arrays
+
+    units, params, terrain = problem.units, problem.params, problem.terrain
+    tree = SearchTree(tuple(problem.apex))
+    graph = CellGraph(problem.apex, terrain, problem.target_x, params)
+    if graph.wall() is not None or not np.any(graph.closure(graph.starts) & graph.ends):
+        return SearchResult(tree, 0, 0, "unreachable")
+    alive = Coreach(graph).alive
+    careful = float(settings[MIN_SPEED_FIELD])
+    s = settings.copy()
+    s[MIN_SPEED_FIELD] = MIN_SPEED * units.speed
+    merge_x, merge_xdot, risk_cost = MERGE_X * units.length, MERGE_XDOT * units.speed, RISK_COST * units.length
+    terr, p, net = terrain_arrays(terrain), params.as_array(), controller.arrays().astuple()
+    sin_a, cos_a = reach_angles(params)
+    slots = np.zeros(N_SLOTS)
+
+    def key(apex) -> tuple:
+        return round(apex[0] / merge_x), round(apex[2] / merge_xdot)
+
+    risk = [0]
+    seen = {key(problem.apex): 0}   # merge cell -> the node that represents it
+    queue = [(-problem.apex[0], 0)]
+    expanded = {0}
+    ode_calls = expansions = 0
+    stop = "exhausted"
+    while queue:
+        if expansions >= max_nodes:
+            stop = "nodes"
+            break
+        if time.perf_counter() >= problem.deadline:
+            stop = "time"
+            break
+        node = heapq.heappop(queue)[1]
+        if seen.get(key(tree.apex[node])) != node:
+            continue   # superseded by a safer arrival in its cell
+        x, z, v = tree.apex[node]
+        angles, footholds, apexes, d, calls, beyond = expand_grid(x, z, v, terr, p, net, sin_a, cos_a, s, slots)
+        expansions += 1
+        ode_calls += calls
+        expanded.add(node)
+        tree.expanded.append(node)
+        if beyond and node > 0:
+            tree.goals.append(node)
+            stop = "goals"
+            break
+        if angles.size == 0:
+            continue
+        child_risk = risk[node] + (apexes[:, 2] < careful).astype(np.int64)
+        goal = np.flatnonzero(footholds >= problem.target_x)
+        if goal.size:
+            first = goal[np.argmin(child_risk[goal])]
+            tree.add(node, _rows(angles, footholds, apexes, d, [first]), np.zeros(1))
+            tree.goals.append(len(tree) - 1)
+            stop = "goals"
+            break
+        keep = np.flatnonzero(alive(apexes))
+        for i in keep[np.argsort(child_risk[keep], kind="stable")].tolist():
+            cell, rk = key(apexes[i]), int(child_risk[i])
+            held = seen.get(cell)
+            if held is not None and (risk[held] <= rk or held in expanded):
+                continue
+            priority = risk_cost * rk - float(apexes[i, 0])
+            tree.add(node, _rows(angles, footholds, apexes, d, [i]), np.array([priority]))
+            risk.append(rk)
+            seen[cell] = len(tree) - 1
+            heapq.heappush(queue, (priority, len(tree) - 1))
+    problem.timing.add(slots)
+    return SearchResult(tree, ode_calls, expansions, stop)
+
+
+def _rows(angles, footholds, apexes, d, rows) -> Children:
+    return Children(angles[rows], footholds[rows], apexes[rows], d[rows], 0)
