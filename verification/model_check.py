@@ -63,7 +63,6 @@ from verification.energy_bound import prove_unreachable
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
 PROVED_NOT_TRAVERSABLE = "proved-not-traversable"
-NOT_TRAVERSABLE_VERDICTS = (NOT_TRAVERSABLE, PROVED_NOT_TRAVERSABLE)   # both: no plan (the ceiling excludes them)
 MIN_SPEED = 0.1        # m/s: slower apexes are dropped (the planners' floor is 0.3 m/s)
 BATCH_NODES = 32       # nodes expanded per step_batch call
 MAX_WITNESSES = 5      # Drake executions tried before a case is called unknown
