@@ -22,14 +22,11 @@ hits, as every other plan is. Lengths and speeds are the paper's hopper's, used 
 """
 from __future__ import annotations
 
-import heapq
-import time
-
 import numpy as np
 
 from planners.base import Problem
 from planners.search.energy_graph import CellGraph, Coreach
-from planners.search.tree import Children, SearchResult, SearchTree
+from planners.search.tree import SearchResult, SearchTree
 
 # Node budget of the stage: about a second on one core (0.2 ms a node: some 20 candidates aimed and flown). The
 # plans the nominal search misses on the committed and freshly drawn suites took it under 200 nodes; the oracle,
@@ -42,81 +39,28 @@ RISK_COST = 0.3     # [m] of progress the queue takes off per slow hop on a node
 
 def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes: int = MAX_NODES) -> SearchResult:
     """The stage from ``problem``'s start, with Step-space's grid ``settings`` (``StepSpacePlanner.core_settings``)
-    and ``controller``; stops at the first sequence whose foothold passes the target (or whose hop lands past the
-    window), an empty queue ("exhausted"), no path in the energy graph ("unreachable"), ``max_nodes`` expansions or
-    the problem's deadline. Adds the controller's and the step map's time to ``problem.timing``."""
-    from planners.core.clock import N_SLOTS   # the compiled core, loaded on first use: imports stay light
-    from planners.core.grid import MIN_SPEED as MIN_SPEED_FIELD
-    from planners.core.grid import expand_grid
-    from planners.core.search import reach_angles, terrain_arrays
+    and ``controller``, on the compiled core (``planners.core.pruned``); stops at the first sequence whose foothold
+    passes the target (or whose hop lands past the window), an empty queue ("exhausted"), no path in the energy graph
+    ("unreachable"), ``max_nodes`` expansions or the problem's deadline. Adds the controller's and the step map's
+    time to ``problem.timing``."""
+    from planners.core.grid import MIN_SPEED as MIN_SPEED_FIELD   # the compiled core, loaded on first use
+    from planners.core.pruned import pruned_best_first
+    from planners.core.search import STOPS, reach_angles, terrain_arrays, tree_of
 
     units, params, terrain = problem.units, problem.params, problem.terrain
-    tree = SearchTree(tuple(problem.apex))
     graph = CellGraph(problem.apex, terrain, problem.target_x, params)
     if graph.wall() is not None or not np.any(graph.closure(graph.starts) & graph.ends):
-        return SearchResult(tree, 0, 0, "unreachable")
-    alive = Coreach(graph).alive
-    careful = float(settings[MIN_SPEED_FIELD])
+        return SearchResult(SearchTree(tuple(problem.apex)), 0, 0, "unreachable")
+    coreach = Coreach(graph)
+    cells = (coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
     s = settings.copy()
-    s[MIN_SPEED_FIELD] = MIN_SPEED * units.speed
-    merge_x, merge_xdot, risk_cost = MERGE_X * units.length, MERGE_XDOT * units.speed, RISK_COST * units.length
-    terr, p, net = terrain_arrays(terrain), params.as_array(), controller.arrays().astuple()
+    careful, s[MIN_SPEED_FIELD] = float(settings[MIN_SPEED_FIELD]), MIN_SPEED * units.speed
+    stage = np.array([careful, MERGE_X * units.length, MERGE_XDOT * units.speed, RISK_COST * units.length,
+                      graph.reach, graph.g, problem.target_x])
     sin_a, cos_a = reach_angles(params)
-    slots = np.zeros(N_SLOTS)
-
-    def key(apex) -> tuple:
-        return round(apex[0] / merge_x), round(apex[2] / merge_xdot)
-
-    risk = [0]
-    seen = {key(problem.apex): 0}   # merge cell -> the node that represents it
-    queue = [(-problem.apex[0], 0)]
-    expanded = {0}
-    ode_calls = expansions = 0
-    stop = "exhausted"
-    while queue:
-        if expansions >= max_nodes:
-            stop = "nodes"
-            break
-        if time.perf_counter() >= problem.deadline:
-            stop = "time"
-            break
-        node = heapq.heappop(queue)[1]
-        if seen.get(key(tree.apex[node])) != node:
-            continue   # superseded by a safer arrival in its cell
-        x, z, v = tree.apex[node]
-        angles, footholds, apexes, d, calls, beyond = expand_grid(x, z, v, terr, p, net, sin_a, cos_a, s, slots)
-        expansions += 1
-        ode_calls += calls
-        expanded.add(node)
-        tree.expanded.append(node)
-        if beyond and node > 0:
-            tree.goals.append(node)
-            stop = "goals"
-            break
-        if angles.size == 0:
-            continue
-        child_risk = risk[node] + (apexes[:, 2] < careful).astype(np.int64)
-        goal = np.flatnonzero(footholds >= problem.target_x)
-        if goal.size:
-            first = goal[np.argmin(child_risk[goal])]
-            tree.add(node, _rows(angles, footholds, apexes, d, [first]), np.zeros(1))
-            tree.goals.append(len(tree) - 1)
-            stop = "goals"
-            break
-        keep = np.flatnonzero(alive(apexes))
-        for i in keep[np.argsort(child_risk[keep], kind="stable")].tolist():
-            cell, rk = key(apexes[i]), int(child_risk[i])
-            held = seen.get(cell)
-            if held is not None and (risk[held] <= rk or held in expanded):
-                continue
-            priority = risk_cost * rk - float(apexes[i, 0])
-            tree.add(node, _rows(angles, footholds, apexes, d, [i]), np.array([priority]))
-            risk.append(rk)
-            seen[cell] = len(tree) - 1
-            heapq.heappush(queue, (priority, len(tree) - 1))
+    tree, size, goals, expanded, ode_calls, expansions, stop, slots = pruned_best_first(
+        np.array(problem.apex, dtype=np.float64), terrain_arrays(terrain), params.as_array(),
+        controller.arrays().astuple(), sin_a, cos_a, s, stage, cells, int(max_nodes), float(problem.deadline))
     problem.timing.add(slots)
-    return SearchResult(tree, ode_calls, expansions, stop)
-
-
-def _rows(angles, footholds, apexes, d, rows) -> Children:
-    return Children(angles[rows], footholds[rows], apexes[rows], d[rows], 0)
+    return SearchResult(tree_of(problem.apex, tree, size, goals, expanded), int(ode_calls), int(expansions),
+                        STOPS[stop])

@@ -277,8 +277,8 @@ class StepSpacePlanner(Planner):
 
 @functools.cache
 def warm_up_core() -> None:
-    """Compile (or load from numba's cache) the planning core's grid search once per process, so its JIT start-up is
-    not charged to a plan's time budget."""
+    """Compile (or load from numba's cache) the planning core's grid search and pruned stage once per process, so
+    their JIT start-up is not charged to a plan's time budget."""
     from planners.core.search import grid_search
     from planners.base import Budget
 
@@ -287,6 +287,7 @@ def warm_up_core() -> None:
     for robust in (None, Robustness()):
         grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
                     planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
+    pruned_search(problem, planner.core_settings(problem, GRID_SPACING), planner.controller, max_nodes=1)
 
 
 def attempt_name(robustness: Robustness | None) -> str:
