@@ -14,7 +14,8 @@ and a goal at most one leg length before its end (planners/formats/suite_draw.py
 By default the robot is an imperfect one and the planner keeps margins for it: the `realistic` noise profile
 (drakeslip/noise.py: the apex it is told is off by 5 mm and 2 cm/s, the leg by 0.005 rad, its spring, mass and
 friction are not the model's, the terrain map is off by 1 cm; sizes of the paper's hopper, scaled to another's)
-and the robust Step-space preset `step@robust`, replanning at every apex. `--planner step --noise none --executed 3` is the paper's setting on a perfect robot.
+and the robust Step-space preset `step@robust`, replanning at every apex. `--planner step --noise none --executed 3`
+is the paper's setting on a perfect robot.
 
 Writes a figure of the terrain, the body path, the planned and the executed footholds; --html also writes a
 Meshcat replay of the run (self-contained HTML: the executed footholds against the planned ones, the plans'

@@ -26,17 +26,18 @@ The verdicts (``verdict``, with a one-line ``statement`` of what it rests on)
                               ``max_witnesses``) or "pruned" (exhausted only after rejected witnesses pruned it).
 
 The search
-  x grows on every successful hop (the forward speed stays positive), so the graph is acyclic and finite at a
-  given resolution. Apexes slower than ``MIN_SPEED`` are dropped (0.1 m/s; the planners drop those under 0.3 m/s),
-  and so are those from which the energy argument shows the goal unreachable (``Coreach``: sound, no plan is lost). There is no hop cap (a witness's length is in ``hops``). Each iteration expands a batch of nodes
-  with every grid angle in one ``step_batch`` call; each merge cell is expanded once, from its first arrival with
-  the least risk. A hop landing within ``EDGE_MARGIN`` of an edge, or whose foot clears the terrain at the apex by
-  less than ``TRIP_MARGIN``, is risky: there the two simulators can part (Drake checks guards at its 2 ms step
-  ends), and it adds ``EDGE_RISK``; a hop to an apex slower than ``CAREFUL_SPEED`` (the planners' floor) adds 1.
-  The queue pops the node farthest ahead, less ``RISK_COST`` m per unit of risk on its path: low-energy starts
-  often need slow hops to climb a step, which a queue of the safe apexes first reaches only after far more nodes.
-  The order prunes nothing, so the verdicts keep their meaning. Speeds, lengths and merge cells are the paper's
-  hopper's, used in the checked hopper's units (``drakeslip.units``; ``min_speed`` given is in m/s).
+  x grows on every successful hop (the forward speed stays positive), so the graph is acyclic and finite at a given
+  resolution. Apexes slower than ``MIN_SPEED`` are dropped (0.1 m/s; the planners drop those under 0.3 m/s), and so
+  are those from which the energy argument shows the goal unreachable (``Coreach``: sound, no plan is lost). There is
+  no hop cap (a witness's length is in ``hops``). Each iteration expands a batch of nodes with every grid angle in one
+  ``step_batch`` call; each merge cell is expanded once, from its first arrival with the least risk. A hop landing
+  within ``EDGE_MARGIN`` of an edge, or whose foot clears the terrain at the apex by less than ``TRIP_MARGIN``, is
+  risky: there the two simulators can part (Drake checks guards at its 2 ms step ends), and it adds ``EDGE_RISK``; a
+  hop to an apex slower than ``CAREFUL_SPEED`` (the planners' floor) adds 1. The queue pops the node farthest ahead,
+  less ``RISK_COST`` m per unit of risk on its path: low-energy starts often need slow hops to climb a step, which a
+  queue of the safe apexes first reaches only after far more nodes. The order prunes nothing, so the verdicts keep
+  their meaning. Speeds, lengths and merge cells are the paper's hopper's, used in the checked hopper's units
+  (``drakeslip.units``; ``min_speed`` given is in m/s).
 
 The Drake check
   A witness is executed on Drake in one continuous simulation, replanned on the fast map from Drake's apex

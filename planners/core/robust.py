@@ -35,7 +35,6 @@ def robust_arrays(robustness, problem) -> tuple:
             float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN)
 
 
-
 @njit(cache=True)
 def root_flights(rob):
     """(node -> its particles' row in ``flights``, the particles' states by row), holding the root's particles
