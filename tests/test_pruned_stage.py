@@ -63,3 +63,20 @@ def test_the_stage_plans_for_another_hopper_in_its_units():
     apex = ApexState(2.0 * LOW_START.apex.x, 2.0 * LOW_START.apex.z, LOW_START.apex.xdot * np.sqrt(2.0))
     plan = planners.make("step", max_nodes=3).plan(apex, terrain, 20.0, big)
     assert plan.success and "pruned search" in plan.message
+
+
+def test_the_compiled_dead_apex_check_is_the_energy_graphs():
+    """planners/core/pruned.py's ``alive`` drops exactly the apexes ``Coreach.alive`` drops (the oracle's check)."""
+    from planners.core.pruned import alive
+    from planners.search.energy_graph import CellGraph, Coreach
+
+    terrain = LOW_START.terrain
+    graph = CellGraph(LOW_START.apex, terrain, 10.0, PARAMS)
+    coreach = Coreach(graph)
+    cells = (coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
+    rng = np.random.default_rng(0)
+    apexes = np.column_stack([rng.uniform(-1.0, 11.0, 400), rng.uniform(0.3, 1.6, 400), rng.uniform(0.05, 3.0, 400)])
+    expected = coreach.alive(apexes)
+    assert 0 < expected.sum() < len(expected)   # both kinds drawn
+    got = [alive(x, z, v, cells, graph.reach, graph.g, 10.0) for x, z, v in apexes]
+    assert np.array_equal(got, expected)
