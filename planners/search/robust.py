@@ -47,6 +47,10 @@ from drakeslip.units import units_of
 
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
+# The last relaxed level's fan: a quarter of the spacing. A soft spring's (k L0 / (m g) near 10) working leg angles
+# from a fast apex span a few hundredths of a radian, between the slips and the bottom-outs, which the coarse fan
+# steps over; with it, a state the perturbed robots could go on from would be left to the nominal search.
+FINE_LOOKAHEAD_ANGLES = 81
 # The paper's hopper's margins: where a particle must touch down [m], clear of edges [m], how fast it must go on
 LANDING, EDGE_MARGIN, MIN_SPEED = 0.04, 0.01, 0.3
 FRICTION_LOSS = 0.05  # the paper's hopper's friction taken off every particle's (its friction error's half-range)
@@ -56,7 +60,9 @@ FRICTION_LOSS = 0.05  # the paper's hopper's friction taken off every particle's
 class Robustness:
     """What a robust sequence must survive: particles at the corners of ``noise`` (``sigmas`` standard
     deviations, half-ranges for the model's uniform errors), a ``friction_loss`` for all of them; where they
-    must land; how many hops must work from where the last robust hop leaves them (``lookahead``); how many of a
+    must land; how many hops must work from where the last robust hop leaves them (``lookahead``), among a fan of
+    how many leg angles (``lookahead_angles``), each hop the first of how many working hops in a row
+    (``lookahead_depth``: 1, the hop alone); how many of a
     sequence's first hops are flown by the particles (``depth``); how many nodes a search at this level may
     expand or refute (``max_nodes``: a robust sequence, when there is one, is found in a few dozen, and proving
     there is none would take thousands); whether a search at this level also tries the planner's fallback grids
@@ -78,7 +84,9 @@ class Robustness:
     max_nodes: int = 30
     fallback_grids: bool = False
     relaxed: tuple = ({"depth": 1, "max_nodes": 60},
-                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True})
+                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True},
+                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True,
+                       "lookahead_angles": FINE_LOOKAHEAD_ANGLES})
 
     def __post_init__(self):
         if isinstance(self.noise, dict):

@@ -15,7 +15,7 @@ from drakeslip.stepmap import BACKENDS
 from drakeslip.units import HopperUnits, units_of
 
 from planners.base import Plan, Planner, Problem
-from planners.search.robust import Robustness
+from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
                                   run_attempts, warm_up)
@@ -267,7 +267,10 @@ def warm_up_core() -> None:
 
 def attempt_name(robustness: Robustness | None) -> str:
     """How a plan's message names the robustness its search asked for."""
-    return "" if robustness is None else f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}) "
+    if robustness is None:
+        return ""
+    fan = "" if robustness.lookahead_angles == LOOKAHEAD_ANGLES else f", fan {robustness.lookahead_angles}"
+    return f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}{fan}) "
 
 
 def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:
