@@ -194,3 +194,21 @@ def test_a_deeper_way_on_is_every_hop_of_it_flown_on_its_own():
         assert ways_on(apex, fan, 1, 2, *args)[0] == min(1, sum(ok2))
         deeper_differs += sum(ok2) < sum(ok1)
     assert deeper_differs >= 1
+
+
+def test_a_robust_planner_searches_last_with_a_quarter_of_its_edge_margin(controller):
+    """Footholds 0.3 m clear of every edge leave no sequence over a ditch course; the robust planner's last search,
+    0.075 m clear, finds one, every foothold of it at least that far from an edge; without it the plan fails."""
+    suite = make_suite("ditch", seed=1000, n_terrains=1)
+    params = ds.SlipParams(friction=suite.friction)
+    case = suite.cases[0]
+    terrain = case.terrain.perceived(case.apex.x)
+    wide = planners.make("step@robust", controller=controller, edge_margin=0.3)
+    plan = wide.plan(case.apex, terrain, suite.goal_x, params)
+    assert plan.success and plan.message.startswith("found by edge margin 0.075 m grid"), plan.message
+    assert np.all(clear_of_edges(terrain, plan.footholds, 0.075))
+    assert not planners.make("step@robust", controller=controller, edge_margin=0.3,
+                             last_resort_margin=None).plan(case.apex, terrain, suite.goal_x, params).success
+    assert planners.make("step", controller=controller).last_resort(units_of(params)) is None
+    with pytest.raises(ValueError, match="last_resort_margin"):
+        planners.make("step@robust", last_resort_margin=1.5)

@@ -2,6 +2,7 @@
 through the low-level controller (paper, section V-C), so every planned step is one the controller hits."""
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import time
@@ -25,6 +26,10 @@ GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm c
 FALLBACK_SPACINGS = (0.01,)
 TOLERANCE = 0.02           # a hop must land this close to its desired foothold
 REACH_PAD = 0.3            # added to the reach on both sides: level changes move touchdowns by up to this
+# The fraction of the edge margin a robust planner's last search keeps when no search with the full margin finds a
+# sequence: a robot left without a plan fails for sure, and one whose noisy map or apex puts the only footholds
+# past a ditch a few millimetres inside the margin can still make it.
+LAST_RESORT_MARGIN = 0.25
 
 
 class StepSpacePlanner(Planner):
@@ -48,7 +53,8 @@ class StepSpacePlanner(Planner):
     it can go on, so the plan keeps the margins a noisy robot needs. The check runs when the search pops a node
     (``admission``), so a search that finds a robust sequence straight away flies the perturbed robots over that
     sequence alone; each robustness level searches the coarse grid within its own node budget, then the next
-    level, then (``fallback_nominal``) the nominal search; the plan's message says which found it.
+    level, then (``fallback_nominal``) the nominal search, then (``last_resort_margin``) the nominal search with
+    footholds that fraction of ``edge_margin`` from an edge; the plan's message says which found it.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
@@ -60,8 +66,12 @@ class StepSpacePlanner(Planner):
                  tolerance: float | None = None, fallback_spacing: tuple | None = None, n_sequences: int = 1,
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, step_map: str = "fast",
-                 robustness: Robustness | dict | None = None, fallback_nominal: bool = True, **budget):
+                 robustness: Robustness | dict | None = None, fallback_nominal: bool = True,
+                 last_resort_margin: float | None = LAST_RESORT_MARGIN, **budget):
         super().__init__(**budget)
+        if last_resort_margin is not None and not 0 <= last_resort_margin < 1:
+            raise ValueError(f"last_resort_margin must be a fraction in [0, 1) or None, got {last_resort_margin!r}")
+        self.last_resort_margin = last_resort_margin
         self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
         if self.robustness is not None and not isinstance(self.robustness, Robustness):
             raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
@@ -245,10 +255,25 @@ class StepSpacePlanner(Planner):
         ok = ok & inside
         return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
 
+    def last_resort(self, units: HopperUnits) -> "StepSpacePlanner | None":
+        """This planner without robustness, its edge margin ``last_resort_margin`` of its own, for a hopper of
+        ``units``: what a robust planner searches last; None without ``robustness``, ``fallback_nominal`` or
+        ``last_resort_margin``."""
+        if self.robustness is None or not self.fallback_nominal or self.last_resort_margin is None:
+            return None
+        tight = copy.copy(self)
+        tight.robustness = None
+        tight.edge_margin = self.last_resort_margin * units.length_or(self.edge_margin, EDGE_MARGIN)
+        return tight
+
     def _plan(self, problem: Problem) -> Plan:
-        return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s:g} m",
-                                             lambda s=s, r=r: self._search(problem, s, r))
-                                            for r, s in self.attempt_settings(problem.units)])
+        attempts = [(f"{attempt_name(r)}grid {s:g} m", lambda s=s, r=r: self._search(problem, s, r))
+                    for r, s in self.attempt_settings(problem.units)]
+        tight = self.last_resort(problem.units)
+        if tight is not None:
+            attempts += [(f"edge margin {tight.edge_margin:.3g} m grid {s:g} m",
+                          lambda s=s: tight._search(problem, s, None)) for s in tight.spacings(problem.units)]
+        return run_attempts(self, problem, attempts)
 
 
 @functools.cache
