@@ -19,7 +19,7 @@ Each finished case is appended to OUT.cases.jsonl, so a killed run continues whe
 starts over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases
 at a time in separate processes (--executor ray: on a Ray cluster).
 
-Exit status: 0 done, 1 a planner crossed a case the oracle calls not traversable (--against), 2 a usage error.
+Exit status: 0 done, 1 a planner crossed a case the oracle proved not traversable (--against), 2 a usage error.
 """
 from __future__ import annotations
 
@@ -52,7 +52,8 @@ def main(argv=None) -> int:
                     help="accept witnesses on the fast step map without executing them on Drake (diagnosis only)")
     ap.add_argument("--against", type=cli.names, default=None,
                     help="comma-separated results JSON files of examples/evaluate.py on the same suite: report "
-                         "the cases a planner crossed that the oracle calls not traversable (exit 1 if any)")
+                         "the cases a planner crossed that the oracle proved not traversable (exit 1 if any) or "
+                         "found no plan for on its grid, and those it failed that the oracle crossed")
     cli.add_hopper(ap, default="the suite's; another is refused in one line")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -117,8 +118,9 @@ def main(argv=None) -> int:
             contradicted += len(c["contradicted"])
             missed = " ".join(c["missed"][:6]) + (" ..." if len(c["missed"]) > 6 else "")
             print(f"soundness vs {name} ({path}): crossed {c['crossed']} of {c['compared']}, of which the oracle "
-                  f"calls not traversable {len(c['contradicted'])} {' '.join(c['contradicted'])}; failed where "
-                  f"the oracle found a witness: {len(c['missed'])} {missed}")
+                  f"proved not traversable {len(c['contradicted'])} {' '.join(c['contradicted'])}, found no plan "
+                  f"on its grid {len(c['off_grid'])} {' '.join(c['off_grid'])}; failed where the oracle found a "
+                  f"witness: {len(c['missed'])} {missed}")
     return cli.FAILED if contradicted else cli.OK
 
 

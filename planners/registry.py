@@ -32,7 +32,8 @@ PRESETS = {
     # the default without its learned re-ranker: the expert model's mode, one step ahead
     "lstm@no-ranker": {"ranker": None},
     # the paper's LSTM-guided search: its model, path-conditioned, every sampled child simulated at once
-    "lstm-guided@paper": {"model": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path"},
+    # (and no pruned last stage, which the paper's planners do not have)
+    "lstm-guided@paper": {"model": str(PAPER_WEIGHTS), "lazy": False, "conditioning": "path", "pruned_nodes": 0},
     # the default search sampling the expert model instead (the trajectory optimizer's best seed)
     "lstm-guided@expert": {"model": str(EXPERT_WEIGHTS)},
     # children that survive realistic noise and leave the hopper where it can go on (planners/search/robust.py),

@@ -154,14 +154,14 @@ def test_bad_inputs_name_the_value():
         mc.model_check((0.0, -0.1, 1.0), Terrain.flat(), 3.0, PARAMS)
 
 
-def test_cross_check_finds_a_crossed_case_called_not_traversable():
+def test_cross_check_finds_a_crossed_case_proved_not_traversable_and_lists_off_grid_plans():
     oracle = {"cases": [{"id": "a", "verdict": mc.NOT_TRAVERSABLE}, {"id": "b", "verdict": mc.TRAVERSABLE},
                         {"id": "c", "verdict": mc.UNKNOWN}, {"id": "e", "verdict": mc.PROVED_NOT_TRAVERSABLE}]}
     evaluation = {"planners": {"step": {"cases": [{"id": "a", "success": True}, {"id": "b", "success": False},
                                                   {"id": "c", "success": True}, {"id": "d", "success": True},
                                                   {"id": "e", "success": True}]}}}
     assert mcs.cross_check(oracle, evaluation) == {
-        "step": {"compared": 4, "crossed": 3, "contradicted": ["a", "e"], "missed": ["b"]}}
+        "step": {"compared": 4, "crossed": 3, "contradicted": ["e"], "off_grid": ["a"], "missed": ["b"]}}
 
 
 def test_the_summary_counts_proved_and_grid_verdicts_as_not_traversable():

@@ -66,11 +66,14 @@ def test_ditch_wider_than_any_hop_has_no_plan(made, name):
 
 @pytest.mark.parametrize("name", ["angle", "step"])
 def test_node_budget_is_respected(controller, name):
-    planner = planners.make(name, max_nodes=3, **({"controller": controller} if name == "step" else {}))
+    stage = {"controller": controller, "pruned_nodes": 4} if name == "step" else {}
+    planner = planners.make(name, max_nodes=3, **stage)
     plan = planner.plan((0.0, 1.0, 2.0), Terrain.flat(), 10.0, PARAMS)
     assert not plan.success and "nodes" in plan.message
-    # one fallback each: Angle-space from B=20 to B=30, Step-space from the 2.5 cm grid to the 1 cm one
-    assert plan.nodes_expanded <= 3 * 2
+    # one fallback each: Angle-space from B=20 to B=30, Step-space from the 2.5 cm grid to the 1 cm one, then
+    # Step-space's pruned stage within its own budget
+    assert plan.nodes_expanded <= 3 * 2 + (4 if name == "step" else 0)
+    assert ("pruned search: nodes" in plan.message) == (name == "step")
 
 
 @pytest.mark.parametrize("name", ["angle", "step"])

@@ -28,8 +28,7 @@ The verdicts (``verdict``, with a one-line ``statement`` of what it rests on)
 The search
   x grows on every successful hop (the forward speed stays positive), so the graph is acyclic and finite at a
   given resolution. Apexes slower than ``MIN_SPEED`` are dropped (0.1 m/s; the planners drop those under 0.3 m/s),
-  and so are those from which the energy argument shows the goal unreachable (``energy_bound.Coreach``: sound, no
-  plan is lost). There is no hop cap (a witness's length is in ``hops``). Each iteration expands a batch of nodes
+  and so are those from which the energy argument shows the goal unreachable (``Coreach``: sound, no plan is lost). There is no hop cap (a witness's length is in ``hops``). Each iteration expands a batch of nodes
   with every grid angle in one ``step_batch`` call; each merge cell is expanded once, from its first arrival with
   the least risk. A hop landing within ``EDGE_MARGIN`` of an edge, or whose foot clears the terrain at the apex by
   less than ``TRIP_MARGIN``, is risky: there the two simulators can part (Drake checks guards at its 2 ms step
@@ -59,11 +58,11 @@ from drakeslip.rollout import HOP_SECONDS, rollout
 from drakeslip.units import units_of
 from planners.base import Budget
 from planners.search.tree import clear_of_edges
-from verification.energy_bound import CellGraph, Coreach, prove_unreachable
+from planners.search.energy_graph import CellGraph, Coreach
+from verification.energy_bound import prove_unreachable
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
 PROVED_NOT_TRAVERSABLE = "proved-not-traversable"
-NOT_TRAVERSABLE_VERDICTS = (NOT_TRAVERSABLE, PROVED_NOT_TRAVERSABLE)   # both: no plan (the ceiling excludes them)
 MIN_SPEED = 0.1        # m/s: slower apexes are dropped (the planners' floor is 0.3 m/s)
 BATCH_NODES = 32       # nodes expanded per step_batch call
 MAX_WITNESSES = 5      # Drake executions tried before a case is called unknown

@@ -16,7 +16,7 @@ from planners.base import Budget
 from planners.formats.suite import Case, Suite, terrain_record
 from planners.formats.suite_draw import suite_hopper
 from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, NOT_TRAVERSABLE,
-                                      NOT_TRAVERSABLE_VERDICTS, PROVED_NOT_TRAVERSABLE, TRAVERSABLE, UNKNOWN,
+                                      PROVED_NOT_TRAVERSABLE, TRAVERSABLE, UNKNOWN,
                                       model_check, resolution_text)
 
 CACHE_VERSION = 2      # bump when a change invalidates cached verdicts (2: proved verdicts, statements)
@@ -125,15 +125,17 @@ def _checked(apex, terrain, goal_x, params, levels, budget, min_speed, drake_che
 
 def cross_check(oracle: dict, evaluation: dict) -> dict:
     """Soundness against planners: for each planner of an ``examples/evaluate.py`` results dict, the cases it
-    crossed that the oracle calls not traversable (``contradicted``: must be empty) and the cases it failed
-    that the oracle calls traversable (``missed``). Only cases both files hold are compared; a case proved not
-    traversable counts as not traversable."""
+    crossed that the oracle proved not traversable (``contradicted``: must be empty, a proof holds for any leg
+    angles), the cases it crossed that the oracle calls not traversable at grid resolution (``off_grid``: a plan the
+    grid misses, with leg angles between its own; that verdict claims no more) and the cases it failed that the
+    oracle calls traversable (``missed``). Only cases both files hold are compared."""
     verdicts = {c["id"]: c["verdict"] for c in oracle["cases"]}
     out = {}
     for name, block in evaluation["planners"].items():
         cases = [c for c in block["cases"] if c["id"] in verdicts]
         out[name] = {"compared": len(cases), "crossed": sum(c["success"] for c in cases),
                      "contradicted": [c["id"] for c in cases
-                                      if c["success"] and verdicts[c["id"]] in NOT_TRAVERSABLE_VERDICTS],
+                                      if c["success"] and verdicts[c["id"]] == PROVED_NOT_TRAVERSABLE],
+                     "off_grid": [c["id"] for c in cases if c["success"] and verdicts[c["id"]] == NOT_TRAVERSABLE],
                      "missed": [c["id"] for c in cases if not c["success"] and verdicts[c["id"]] == TRAVERSABLE]}
     return out

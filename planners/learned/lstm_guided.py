@@ -90,6 +90,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     candidate at least that weight, so that from a state the model has not learned (a noisy robot's) the search
     can still reach any foothold, the model's least likely last; 0 samples only what the model deems possible.
     ``grid_fallback``: when the sampled searches find nothing, search Step-space's whole grid before giving up.
+    Then, as Step-space's, the pruned stage (``pruned_nodes``; ``planners.search.pruned``).
 
     The defaults are the best shipped setting: the sub-cell model (2.5 cm bins, ``SUBCELL_WEIGHTS``), restarted
     from each node's own apex (``conditioning="apex"``), its samples simulated one at a time in their drawn order
@@ -141,7 +142,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             if self.grid_fallback and r is None:  # the whole grid, as Step-space searches it
                 attempts += [(f"grid {s:g} m", lambda s=s: StepSpacePlanner._search(self, problem, s))
                              for s in self.spacings(problem.units)]
-        return run_attempts(self, problem, attempts)
+        return run_attempts(self, problem, attempts + self.pruned_stage(problem))
 
     def _search(self, problem, branching, robust=None):
         window = self.core_window(problem)

@@ -16,6 +16,8 @@ from drakeslip.stepmap import BACKENDS
 from drakeslip.units import HopperUnits, units_of
 
 from planners.base import Plan, Planner, Problem
+from planners.search.pruned import MAX_NODES as PRUNED_NODES
+from planners.search.pruned import pruned_search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
@@ -53,8 +55,17 @@ class StepSpacePlanner(Planner):
     it can go on, so the plan keeps the margins a noisy robot needs. The check runs when the search pops a node
     (``admission``), so a search that finds a robust sequence straight away flies the perturbed robots over that
     sequence alone; each robustness level searches the coarse grid within its own node budget, then the next
-    level, then (``fallback_nominal``) the nominal search, then (``last_resort_margin``) the nominal search with
-    footholds that fraction of ``edge_margin`` from an edge; the plan's message says which found it.
+    level, then (``fallback_nominal``) the nominal search; the plan's message says which found it.
+
+    When every search finds nothing, the last stage (``planners.search.pruned``) searches on from the start with the
+    oracle's pruning (the energy graph, merged apexes, progress minus risk) for up to ``pruned_nodes`` expansions
+    (default PRUNED_NODES; 0 skips it): starts with little energy before high steps have plans of many slow hops that
+    the nominal order does not reach. It runs on the fast step map, after the nominal search (not after robust levels
+    alone: ``fallback_nominal=False``); the plan's message then says "found by pruned search". After it, a robust
+    planner (``robustness`` with ``fallback_nominal``) runs the nominal search once more with footholds only
+    ``last_resort_margin`` of ``edge_margin`` from an edge (default LAST_RESORT_MARGIN; None skips it): a robot left
+    without a plan fails for sure, and one whose noisy map or apex puts the only footholds past a ditch a few
+    millimetres inside the margin can still make it; the message then names that edge margin.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
@@ -67,8 +78,11 @@ class StepSpacePlanner(Planner):
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, step_map: str = "fast",
                  robustness: Robustness | dict | None = None, fallback_nominal: bool = True,
-                 last_resort_margin: float | None = LAST_RESORT_MARGIN, **budget):
+                 pruned_nodes: int = PRUNED_NODES, last_resort_margin: float | None = LAST_RESORT_MARGIN, **budget):
         super().__init__(**budget)
+        if isinstance(pruned_nodes, bool) or not isinstance(pruned_nodes, int) or pruned_nodes < 0:
+            raise ValueError(f"pruned_nodes must be a non-negative integer (0: no pruned stage), got {pruned_nodes!r}")
+        self.pruned_nodes = pruned_nodes
         if last_resort_margin is not None and not 0 <= last_resort_margin < 1:
             raise ValueError(f"last_resort_margin must be a fraction in [0, 1) or None, got {last_resort_margin!r}")
         self.last_resort_margin = last_resort_margin
@@ -268,18 +282,30 @@ class StepSpacePlanner(Planner):
 
     def _plan(self, problem: Problem) -> Plan:
         attempts = [(f"{attempt_name(r)}grid {s:g} m", lambda s=s, r=r: self._search(problem, s, r))
-                    for r, s in self.attempt_settings(problem.units)]
+                    for r, s in self.attempt_settings(problem.units)] + self.pruned_stage(problem)
         tight = self.last_resort(problem.units)
         if tight is not None:
             attempts += [(f"edge margin {tight.edge_margin:.3g} m grid {s:g} m",
                           lambda s=s: tight._search(problem, s, None)) for s in tight.spacings(problem.units)]
         return run_attempts(self, problem, attempts)
 
+    def pruned_stage(self, problem: Problem) -> list:
+        """The pruned search's attempt, [("pruned search", thunk)], where the planner runs one (see the class doc):
+        [] without."""
+        if not self.pruned_nodes or self.step_map != "fast" or self.robustness_levels()[-1] is not None:
+            return []
+
+        def attempt():
+            settings = self.core_settings(problem, self.spacings(problem.units)[0])
+            return pruned_search(problem, settings, self.controller.for_params(problem.params), self.pruned_nodes)
+
+        return [("pruned search", attempt)]
+
 
 @functools.cache
 def warm_up_core() -> None:
-    """Compile (or load from numba's cache) the planning core's grid search once per process, so its JIT start-up is
-    not charged to a plan's time budget."""
+    """Compile (or load from numba's cache) the planning core's grid search and pruned stage once per process, so
+    their JIT start-up is not charged to a plan's time budget."""
     from planners.core.search import grid_search
     from planners.base import Budget
 
@@ -288,6 +314,7 @@ def warm_up_core() -> None:
     for robust in (None, Robustness()):
         grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
                     planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
+    pruned_search(problem, planner.core_settings(problem, GRID_SPACING), planner.controller, max_nodes=1)
 
 
 def attempt_name(robustness: Robustness | None) -> str:
