@@ -106,14 +106,16 @@ def test_a_noisy_run_repeats_under_its_seed_in_any_order(suite, controller):
 def test_robustness_settings_are_checked_and_relax_in_order():
     rob = Robustness()
     levels = rob.levels()
-    assert [(r.depth, r.sigmas) for r in levels] == [(2, 2.0), (1, 2.0), (1, 1.0)]
+    assert [(r.depth, r.sigmas) for r in levels] == [(2, 2.0), (1, 2.0), (1, 1.0), (1, 1.0)]
     assert levels[0] is rob and all(r.relaxed == () for r in levels[1:])
-    assert [r.max_nodes for r in levels] == [30, 60, 60]
+    assert [r.max_nodes for r in levels] == [30, 60, 60, 60]
+    assert [r.lookahead_angles for r in levels] == [21, 21, 21, 81] and {r.lookahead_depth for r in levels} == {1}
     particles = rob.particles((0.0, 1.0, 2.0), ds.Terrain.flat(), ds.SlipParams())
     assert np.all(particles.states[0] == (0.0, 1.0, 2.0)) and len(particles.states) == 15
     assert len(particles.worlds.x0) == 7 and particles.world[0] == 0 and set(particles.world) == set(range(7))
     for kwargs, message in ((dict(sigmas=-1), "sigmas"), (dict(depth=0), "depth"), (dict(lookahead=1.5), "lookahead"),
-                            (dict(max_nodes=0), "max_nodes"),
+                            (dict(max_nodes=0), "max_nodes"), (dict(lookahead_depth=0), "lookahead_depth"),
+                            (dict(lookahead_angles=1), "lookahead_angles"),
                             (dict(relaxed=[{"depht": 1}]), "depht"), (dict(relaxed=[{"noise": {}}]), "relaxed"),
                             (dict(landing=float("nan")), "landing")):
         with pytest.raises((ValueError, TypeError), match=message):

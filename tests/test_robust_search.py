@@ -11,7 +11,7 @@ import planners
 from drakeslip.controller import StepLengthController
 from drakeslip.units import units_of
 from planners.formats.suite import make_suite
-from planners.search.robust import Robustness, Worlds
+from planners.search.robust import Robustness, Worlds, ways_on
 from planners.search.tree import clear_of_edges
 
 
@@ -158,6 +158,57 @@ def test_only_the_last_robust_level_searches_the_fine_grid(controller):
     settings = planners.make("step@robust", controller=controller).attempt_settings(units_of(ds.SlipParams()))
     described = [(None if r is None else (r.sigmas, r.depth), spacing) for r, spacing in settings]
     assert described == [((2.0, 2), 0.025), ((2.0, 1), 0.025), ((1.0, 1), 0.025), ((1.0, 1), 0.01),
-                         (None, 0.025), (None, 0.01)]
+                         ((1.0, 1), 0.025), ((1.0, 1), 0.01), (None, 0.025), (None, 0.01)]
     with pytest.raises(ValueError, match="fallback_grids"):
         Robustness(fallback_grids="yes")
+
+
+def test_a_deeper_way_on_is_every_hop_of_it_flown_on_its_own():
+    """``ways_on`` at depth 2 counts the fan's leg angles whose hop works and is followed by a working hop, as
+    flying both hops of every pair alone finds, before a ditch where some first hops leave no way on; at depth 1 it
+    counts the working hops, and it stops at the count it is asked for."""
+    params = ds.SlipParams()
+    terrain = ds.ditch_world(150014).perceived(0.0)
+    fan = (np.linspace(-0.95, 0.95, 21) * np.arctan(params.friction))[::-1].copy()
+    margin, min_speed = 0.02, 0.3
+
+    def working(r, k):
+        return bool(r.ok[k] and r.next_xdot[k] >= min_speed
+                    and clear_of_edges(terrain, np.array([r.touchdown_x[k]]), margin)[0])
+
+    out = np.empty(8)
+    args = (params.as_array(), terrain.heights, terrain.x0, terrain.cell, terrain.ditch_height, terrain.heights,
+            terrain.x0, 0.0, min_speed, margin, out)
+    deeper_differs = 0
+    for x in np.arange(0.0, 4.0, 0.25):
+        apex = np.array([x, 0.9, 1.5])
+        first = ds.step_batch(apex, fan, terrain, params)
+        ok1 = [working(first, k) for k in range(fan.size)]
+        ok2 = []
+        for k in range(fan.size):
+            second = ok1[k] and ds.step_batch((first.next_x[k], first.next_z[k], first.next_xdot[k]), fan, terrain,
+                                              params)
+            ok2.append(ok1[k] and any(working(second, j) for j in range(fan.size)))
+        assert ways_on(apex, fan, fan.size, 1, *args)[0] == sum(ok1)
+        assert ways_on(apex, fan, fan.size, 2, *args)[0] == sum(ok2)
+        assert ways_on(apex, fan, 1, 2, *args)[0] == min(1, sum(ok2))
+        deeper_differs += sum(ok2) < sum(ok1)
+    assert deeper_differs >= 1
+
+
+def test_a_robust_planner_searches_last_with_a_quarter_of_its_edge_margin(controller):
+    """Footholds 0.3 m clear of every edge leave no sequence over a ditch course; the robust planner's last search,
+    0.075 m clear, finds one, every foothold of it at least that far from an edge; without it the plan fails."""
+    suite = make_suite("ditch", seed=1000, n_terrains=1)
+    params = ds.SlipParams(friction=suite.friction)
+    case = suite.cases[0]
+    terrain = case.terrain.perceived(case.apex.x)
+    wide = planners.make("step@robust", controller=controller, edge_margin=0.3)
+    plan = wide.plan(case.apex, terrain, suite.goal_x, params)
+    assert plan.success and plan.message.startswith("found by edge margin 0.075 m grid"), plan.message
+    assert np.all(clear_of_edges(terrain, plan.footholds, 0.075))
+    assert not planners.make("step@robust", controller=controller, edge_margin=0.3,
+                             last_resort_margin=None).plan(case.apex, terrain, suite.goal_x, params).success
+    assert planners.make("step", controller=controller).last_resort(units_of(params)) is None
+    with pytest.raises(ValueError, match="last_resort_margin"):
+        planners.make("step@robust", last_resort_margin=1.5)

@@ -18,7 +18,7 @@ from planners.search.robust import NO_FAN, fly_particles
 FAILED_CHECK = -2  # what ``pop_admitted`` returns for a popped node that failed the check
 # fields of a robustness tuple (``robust_arrays``)
 (DEPTH, LOOKAHEAD, STATES, APEX_ERRORS, ANGLE_ERRORS, WORLD, SHIFT, W_PARAMS, W_HEIGHTS, W_X0, CLEARANCE, LANDING,
- EDGE_MARGIN, MIN_SPEED, FAN) = range(15)
+ EDGE_MARGIN, MIN_SPEED, FAN, LOOKAHEAD_DEPTH) = range(16)
 
 
 def robust_arrays(robustness, problem) -> tuple:
@@ -26,13 +26,13 @@ def robust_arrays(robustness, problem) -> tuple:
     if robustness is None:
         empty = np.zeros((0, 3))
         return (0, 0, empty, empty, np.zeros(0), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-                np.zeros((0, 1)), np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN)
+                np.zeros((0, 1)), np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN, 1)
     particles = robustness.particles(problem.apex, problem.terrain, problem.params)
     w = particles.worlds
     return (int(robustness.depth), int(robustness.lookahead), particles.states, particles.apex_errors,
             particles.angle_errors, particles.world.astype(np.int64), particles.shift.astype(np.float64), w.params,
             w.heights, w.x0, float(particles.clearance), float(particles.landing), float(particles.edge_margin),
-            float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN)
+            float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN, int(robustness.lookahead_depth))
 
 
 @njit(cache=True)
@@ -68,7 +68,7 @@ def admit(tree, node, rob, flight_of, flights, terr, net, slots):
     fan = rob[FAN] if depth == rob[DEPTH] else NO_FAN
     passed, ends, hops = fly_particles(here, angles, rob[WORLD], rob[SHIFT], rob[W_PARAMS], rob[W_HEIGHTS],
                                        rob[W_X0], cell, ditch, foothold, heights, x0, rob[LANDING], rob[MIN_SPEED],
-                                       rob[CLEARANCE], rob[EDGE_MARGIN], fan, rob[LOOKAHEAD])
+                                       rob[CLEARANCE], rob[EDGE_MARGIN], fan, rob[LOOKAHEAD], rob[LOOKAHEAD_DEPTH])
     slots[CONTROLLER] += t1 - t0
     slots[STEP_MAP] += now() - t1
     if passed:

@@ -47,6 +47,10 @@ from drakeslip.units import units_of
 
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
+# The last relaxed level's fan: a quarter of the spacing. A soft spring's (k L0 / (m g) near 10) working leg angles
+# from a fast apex span a few hundredths of a radian, between the slips and the bottom-outs, which the coarse fan
+# steps over; with it, a state the perturbed robots could go on from would be left to the nominal search.
+FINE_LOOKAHEAD_ANGLES = 81
 # The paper's hopper's margins: where a particle must touch down [m], clear of edges [m], how fast it must go on
 LANDING, EDGE_MARGIN, MIN_SPEED = 0.04, 0.01, 0.3
 FRICTION_LOSS = 0.05  # the paper's hopper's friction taken off every particle's (its friction error's half-range)
@@ -56,7 +60,9 @@ FRICTION_LOSS = 0.05  # the paper's hopper's friction taken off every particle's
 class Robustness:
     """What a robust sequence must survive: particles at the corners of ``noise`` (``sigmas`` standard
     deviations, half-ranges for the model's uniform errors), a ``friction_loss`` for all of them; where they
-    must land; how many hops must work from where the last robust hop leaves them (``lookahead``); how many of a
+    must land; how many hops must work from where the last robust hop leaves them (``lookahead``), among a fan of
+    how many leg angles (``lookahead_angles``), each hop the first of how many working hops in a row
+    (``lookahead_depth``: 1, the hop alone); how many of a
     sequence's first hops are flown by the particles (``depth``); how many nodes a search at this level may
     expand or refute (``max_nodes``: a robust sequence, when there is one, is found in a few dozen, and proving
     there is none would take thousands); whether a search at this level also tries the planner's fallback grids
@@ -72,11 +78,15 @@ class Robustness:
     min_speed: float | None = None
     min_clearance: float = 1.0
     lookahead: int = 2
+    lookahead_depth: int = 1
+    lookahead_angles: int = LOOKAHEAD_ANGLES
     depth: int = 2
     max_nodes: int = 30
     fallback_grids: bool = False
     relaxed: tuple = ({"depth": 1, "max_nodes": 60},
-                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True})
+                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True},
+                      {"depth": 1, "sigmas": 1.0, "max_nodes": 60, "fallback_grids": True,
+                       "lookahead_angles": FINE_LOOKAHEAD_ANGLES})
 
     def __post_init__(self):
         if isinstance(self.noise, dict):
@@ -95,7 +105,7 @@ class Robustness:
                 raise ValueError(f"Robustness.relaxed must hold dicts of the fields to change (not noise or relaxed), "
                                  f"got {level!r}")
             replace(self, **level, relaxed=())  # checks the level's fields and values
-        for name, low in (("lookahead", 0), ("depth", 1), ("max_nodes", 1)):
+        for name, low in (("lookahead", 0), ("lookahead_depth", 1), ("lookahead_angles", 2), ("depth", 1), ("max_nodes", 1)):
             object.__setattr__(self, name, check_count(getattr(self, name), f"Robustness.{name}", low))
 
     def levels(self) -> list:
@@ -136,7 +146,7 @@ class Robustness:
         return Particles(np.asarray(apex, dtype=np.float64) - errors, errors, np.array([d for _, d, *_ in rows]),
                          np.array([variants.index((ks, ms, g)) for *_, ks, ms, g in rows]),
                          np.array([g[1] for *_, g in rows]), worlds,
-                         (np.linspace(-0.95, 0.95, LOOKAHEAD_ANGLES) * math.atan(friction))[::-1].copy(),
+                         (np.linspace(-0.95, 0.95, self.lookahead_angles) * math.atan(friction))[::-1].copy(),
                          self.min_clearance * params.leg_length, units.length_or(self.landing, LANDING),
                          units.length_or(self.edge_margin, EDGE_MARGIN), units.speed_or(self.min_speed, MIN_SPEED))
 
@@ -152,7 +162,8 @@ class Robustness:
         return fly_particles(particles.states, angles, particles.world, particles.shift, w.params, w.heights, w.x0,
                              w.cell, w.ditch_height, float(foothold), terrain.heights, terrain.x0, particles.landing,
                              particles.min_speed, particles.clearance, particles.edge_margin,
-                             particles.fan if last and self.lookahead else NO_FAN, self.lookahead)
+                             particles.fan if last and self.lookahead else NO_FAN, self.lookahead,
+                             self.lookahead_depth)
 
 
 @dataclass(frozen=True)
@@ -211,14 +222,14 @@ NO_FAN = np.zeros(0)  # no way-on check
 
 @njit(cache=True)
 def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch_height, foothold, seen_heights,
-                  seen_x0, landing, min_speed, clearance, edge_margin, fan, lookahead):
+                  seen_x0, landing, min_speed, clearance, edge_margin, fan, lookahead, lookahead_depth):
     """Robustness.fly's flights, compiled: particle i hops from ``states[i]`` with ``angles[i]`` in its world
     (``Worlds`` arrays) and must complete the hop, touch down within ``landing`` of ``foothold`` on its level of the
     map (``seen_heights`` from ``seen_x0``, sharing the worlds' ``cell``), clear of its edges by ``edge_margin``, and
     reach its next apex with ``min_speed``, ``clearance`` above the ground under it. Then, for a non-empty ``fan``,
-    each particle must find ``lookahead`` hops among the fan's leg angles that complete, land clear of edges and keep
-    ``min_speed``. Stops at the first particle that fails and counts a particle's fan only until it has found
-    ``lookahead`` hops, so the verdict is that of flying every hop and the hops flown are fewer. Returns (robust,
+    each particle must find ``lookahead`` leg angles of the fan that start a way on of ``lookahead_depth`` working
+    hops (``ways_on``). Stops at the first particle that fails and searches a particle's ways on only until it has
+    found ``lookahead``, so the verdict is that of flying every hop and the hops flown are fewer. Returns (robust,
     next apexes (P, 3), hops flown)."""
     n = states.shape[0]
     ends = np.empty((n, 3))
@@ -239,19 +250,48 @@ def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch
             return False, ends, hops
     for i in range(n if fan.size else 0):
         w = world[i]
-        found = 0
-        for angle in fan:
-            step_one(ends[i, 0], ends[i, 1], ends[i, 2], angle, params[w], heights[w], x0[w], cell, ditch_height,
-                     STANCE_STEPS, out)
-            hops += 1
-            if (out[OUT_CODE] == OK and out[OUT_XDOT] >= min_speed
-                    and clear_of_edges_at(seen_heights, seen_x0, cell, out[OUT_TD_X] - shift[i], edge_margin)):
-                found += 1
-                if found >= lookahead:
-                    break
+        found, flown = ways_on(ends[i], fan, lookahead, lookahead_depth, params[w], heights[w], x0[w], cell,
+                               ditch_height, seen_heights, seen_x0, shift[i], min_speed, edge_margin, out)
+        hops += flown
         if found < lookahead:
             return False, ends, hops
     return True, ends, hops
+
+
+@njit(cache=True)
+def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_heights, seen_x0, shift, min_speed,
+            edge_margin, out):
+    """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex``, hops flown) for a hopper
+    ``p`` over ``heights`` from ``x0`` whose map (``seen_heights`` from ``seen_x0``) is ``shift`` off: a way on is
+    ``depth`` working hops in a row (each completes, lands clear of the map's edges by ``edge_margin`` and keeps
+    ``min_speed``), each hop's leg angle taken from ``fan`` in its order; depth first, so the first way on from an
+    angle ends that angle's search. ``out``: a step_one output buffer."""
+    state = np.empty((depth, 3))
+    angle = np.zeros(depth, np.int64)  # at each hop of the way being tried, the index of its fan angle
+    state[0, 0], state[0, 1], state[0, 2] = apex[0], apex[1], apex[2]
+    found = hops = level = 0
+    while found < wanted:
+        if angle[level] == fan.size:  # no way on from this hop's start: try the hop before it with its next angle
+            if level == 0:
+                break
+            level -= 1
+            angle[level] += 1
+            continue
+        step_one(state[level, 0], state[level, 1], state[level, 2], fan[angle[level]], p, heights, x0, cell,
+                 ditch_height, STANCE_STEPS, out)
+        hops += 1
+        if not (out[OUT_CODE] == OK and out[OUT_XDOT] >= min_speed
+                and clear_of_edges_at(seen_heights, seen_x0, cell, out[OUT_TD_X] - shift, edge_margin)):
+            angle[level] += 1
+        elif level + 1 == depth:  # a way on from the first hop's angle: on to the next first angle
+            found += 1
+            level = 0
+            angle[0] += 1
+        else:
+            level += 1
+            state[level, 0], state[level, 1], state[level, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
+            angle[level] = 0
+    return found, hops
 
 
 @njit(cache=True)

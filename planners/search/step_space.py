@@ -2,6 +2,7 @@
 through the low-level controller (paper, section V-C), so every planned step is one the controller hits."""
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import time
@@ -17,7 +18,7 @@ from drakeslip.units import HopperUnits, units_of
 from planners.base import Plan, Planner, Problem
 from planners.search.pruned import MAX_NODES as PRUNED_NODES
 from planners.search.pruned import pruned_search
-from planners.search.robust import Robustness
+from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
                                   run_attempts, warm_up)
@@ -27,6 +28,10 @@ GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm c
 FALLBACK_SPACINGS = (0.01,)
 TOLERANCE = 0.02           # a hop must land this close to its desired foothold
 REACH_PAD = 0.3            # added to the reach on both sides: level changes move touchdowns by up to this
+# The fraction of the edge margin a robust planner's last search keeps when no search with the full margin finds a
+# sequence: a robot left without a plan fails for sure, and one whose noisy map or apex puts the only footholds
+# past a ditch a few millimetres inside the margin can still make it.
+LAST_RESORT_MARGIN = 0.25
 
 
 class StepSpacePlanner(Planner):
@@ -56,7 +61,11 @@ class StepSpacePlanner(Planner):
     oracle's pruning (the energy graph, merged apexes, progress minus risk) for up to ``pruned_nodes`` expansions
     (default PRUNED_NODES; 0 skips it): starts with little energy before high steps have plans of many slow hops that
     the nominal order does not reach. It runs on the fast step map, after the nominal search (not after robust levels
-    alone: ``fallback_nominal=False``); the plan's message then says "found by pruned search".
+    alone: ``fallback_nominal=False``); the plan's message then says "found by pruned search". After it, a robust
+    planner (``robustness`` with ``fallback_nominal``) runs the nominal search once more with footholds only
+    ``last_resort_margin`` of ``edge_margin`` from an edge (default LAST_RESORT_MARGIN; None skips it): a robot left
+    without a plan fails for sure, and one whose noisy map or apex puts the only footholds past a ditch a few
+    millimetres inside the margin can still make it; the message then names that edge margin.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
@@ -69,11 +78,14 @@ class StepSpacePlanner(Planner):
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, step_map: str = "fast",
                  robustness: Robustness | dict | None = None, fallback_nominal: bool = True,
-                 pruned_nodes: int = PRUNED_NODES, **budget):
+                 pruned_nodes: int = PRUNED_NODES, last_resort_margin: float | None = LAST_RESORT_MARGIN, **budget):
         super().__init__(**budget)
         if isinstance(pruned_nodes, bool) or not isinstance(pruned_nodes, int) or pruned_nodes < 0:
             raise ValueError(f"pruned_nodes must be a non-negative integer (0: no pruned stage), got {pruned_nodes!r}")
         self.pruned_nodes = pruned_nodes
+        if last_resort_margin is not None and not 0 <= last_resort_margin < 1:
+            raise ValueError(f"last_resort_margin must be a fraction in [0, 1) or None, got {last_resort_margin!r}")
+        self.last_resort_margin = last_resort_margin
         self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
         if self.robustness is not None and not isinstance(self.robustness, Robustness):
             raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
@@ -257,14 +269,29 @@ class StepSpacePlanner(Planner):
         ok = ok & inside
         return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
 
+    def last_resort(self, units: HopperUnits) -> "StepSpacePlanner | None":
+        """This planner without robustness, its edge margin ``last_resort_margin`` of its own, for a hopper of
+        ``units``: what a robust planner searches last; None without ``robustness``, ``fallback_nominal`` or
+        ``last_resort_margin``."""
+        if self.robustness is None or not self.fallback_nominal or self.last_resort_margin is None:
+            return None
+        tight = copy.copy(self)
+        tight.robustness = None
+        tight.edge_margin = self.last_resort_margin * units.length_or(self.edge_margin, EDGE_MARGIN)
+        return tight
+
     def _plan(self, problem: Problem) -> Plan:
-        return run_attempts(self, problem, [(f"{attempt_name(r)}grid {s:g} m",
-                                             lambda s=s, r=r: self._search(problem, s, r))
-                                            for r, s in self.attempt_settings(problem.units)]
-                            + self.pruned_stage(problem))
+        attempts = [(f"{attempt_name(r)}grid {s:g} m", lambda s=s, r=r: self._search(problem, s, r))
+                    for r, s in self.attempt_settings(problem.units)] + self.pruned_stage(problem)
+        tight = self.last_resort(problem.units)
+        if tight is not None:
+            attempts += [(f"edge margin {tight.edge_margin:.3g} m grid {s:g} m",
+                          lambda s=s: tight._search(problem, s, None)) for s in tight.spacings(problem.units)]
+        return run_attempts(self, problem, attempts)
 
     def pruned_stage(self, problem: Problem) -> list:
-        """The last attempt, ("pruned search", thunk), where the planner runs one (see the class doc): [] without."""
+        """The pruned search's attempt, [("pruned search", thunk)], where the planner runs one (see the class doc):
+        [] without."""
         if not self.pruned_nodes or self.step_map != "fast" or self.robustness_levels()[-1] is not None:
             return []
 
@@ -292,7 +319,10 @@ def warm_up_core() -> None:
 
 def attempt_name(robustness: Robustness | None) -> str:
     """How a plan's message names the robustness its search asked for."""
-    return "" if robustness is None else f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}) "
+    if robustness is None:
+        return ""
+    fan = "" if robustness.lookahead_angles == LOOKAHEAD_ANGLES else f", fan {robustness.lookahead_angles}"
+    return f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}{fan}) "
 
 
 def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:
