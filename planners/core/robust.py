@@ -32,7 +32,8 @@ def robust_arrays(robustness, problem) -> tuple:
     return (int(robustness.depth), int(robustness.lookahead), particles.states, particles.apex_errors,
             particles.angle_errors, particles.world.astype(np.int64), particles.shift.astype(np.float64), w.params,
             w.heights, w.x0, float(particles.clearance), float(particles.landing), float(particles.edge_margin),
-            float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN, int(robustness.lookahead_depth))
+            float(particles.min_speed), particles.fan if robustness.lookahead else NO_FAN,
+            int(robustness.lookahead_depth))
 
 
 @njit(cache=True)

@@ -105,7 +105,8 @@ class Robustness:
                 raise ValueError(f"Robustness.relaxed must hold dicts of the fields to change (not noise or relaxed), "
                                  f"got {level!r}")
             replace(self, **level, relaxed=())  # checks the level's fields and values
-        for name, low in (("lookahead", 0), ("lookahead_depth", 1), ("lookahead_angles", 2), ("depth", 1), ("max_nodes", 1)):
+        for name, low in (("lookahead", 0), ("lookahead_depth", 1), ("lookahead_angles", 2), ("depth", 1),
+                          ("max_nodes", 1)):
             object.__setattr__(self, name, check_count(getattr(self, name), f"Robustness.{name}", low))
 
     def levels(self) -> list:
