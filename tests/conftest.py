@@ -1,5 +1,6 @@
 """Shared test fixtures."""
 import importlib.util
+import signal
 from pathlib import Path
 
 import pytest
@@ -32,6 +33,13 @@ def run_script(example, capsys):
         captured = capsys.readouterr()
         return code, captured.out, captured.err
     return run
+
+
+def pytest_configure(config):
+    """Ctrl-C as a program started from a terminal takes it: a shell without job control starts a background command
+    (``pytest ... &``) with SIGINT ignored, which every script a test starts would inherit, so the tests that
+    interrupt a run would see it run to the end. A handled signal is reset to its default action in a child."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def pytest_collection_modifyitems(config, items):

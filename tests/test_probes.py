@@ -192,12 +192,6 @@ def session_processes(session: int) -> list[int]:
     return found
 
 
-def sigint_as_in_a_terminal() -> None:
-    """SIGINT's default action, which a program started from a terminal has: a shell without job control starts a
-    background command (``pytest ... &``) with SIGINT ignored, and its children would inherit that."""
-    signal.signal(signal.SIGINT, signal.SIG_DFL)
-
-
 def interrupt_evaluation(folder: Path) -> tuple:
     """Ctrl-C, as a terminal sends it (SIGINT to the process group), to a two-process evaluation once it saved a
     result. Returns (exit status, stderr, results in the cache, processes of the run left after 10 s). The hops run
@@ -208,7 +202,7 @@ def interrupt_evaluation(folder: Path) -> tuple:
     job = subprocess.Popen([sys.executable, str(ROOT / "examples" / "evaluate.py"), "--suite", str(ROOT / SUITE),
                             "--planners", "heuristic", "--backend", "drake", "--jobs", "2", "--quiet", "--out",
                             str(out)], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, cwd=ROOT,
-                           start_new_session=True, preexec_fn=sigint_as_in_a_terminal)
+                           start_new_session=True)
     try:
         deadline = time.monotonic() + 180
         while job.poll() is None and time.monotonic() < deadline and not (
