@@ -11,7 +11,8 @@ from numba.typed import Dict
 
 from planners.core.clock import N_SLOTS
 from planners.core.grid import expand_grid
-from planners.core.tree import EXHAUSTED, GO_ON, GOALS, NO_LIMIT, budget_stop, heap_pop, heap_push, new_tree, reserve
+from planners.core.tree import (EXHAUSTED, GO_ON, GOALS, NO_LIMIT, budget_stop, grown, heap_pop, heap_push, new_tree,
+                                reserve)
 
 # fields of the stage's settings array (``planners.search.pruned.pruned_search`` fills it)
 CAREFUL, MERGE_X, MERGE_XDOT, RISK_COST, REACH, GRAVITY_G, TARGET_X = range(7)
@@ -42,11 +43,11 @@ def alive(x, z, v, cells, reach, g, target_x):
 
 
 @njit(cache=True)
-def add_node(tree, size, risk, node, angle, foothold, apex, priority, rk):
-    """Node ``size``: the child of ``node`` at ``apex`` with its queue priority and risk."""
+def add_node(tree, size, risk, expanded_flag, node, angle, foothold, apex, priority, rk):
+    """Node ``size``: the child of ``node`` at ``apex`` with its queue priority and risk, not yet expanded."""
     parent, angles, footholds, apexes, cost, depth = tree
     parent[size], angles[size], footholds[size], cost[size] = node, angle, foothold, priority
-    depth[size], risk[size] = depth[node] + 1, rk
+    depth[size], risk[size], expanded_flag[size] = depth[node] + 1, rk, False
     apexes[size] = apex
 
 
@@ -88,10 +89,7 @@ def pruned_best_first(root, terr, p, net, sin_a, cos_a, s, stage, cells, max_nod
             break
         k = angles.shape[0]
         tree = reserve(tree, size, k)
-        if size + k > risk.shape[0]:
-            grown_risk, grown_flag = np.zeros(2 * (size + k), np.int64), np.zeros(2 * (size + k), np.bool_)
-            grown_risk[:size], grown_flag[:size] = risk[:size], expanded_flag[:size]
-            risk, expanded_flag = grown_risk, grown_flag
+        risk, expanded_flag = grown(risk, size + k), grown(expanded_flag, size + k)
         slow = np.empty(k, np.int64)
         goal, goal_risk = -1, 0
         for j in range(k):   # a child past the target ends the search: the first with the least risk
@@ -99,7 +97,7 @@ def pruned_best_first(root, terr, p, net, sin_a, cos_a, s, stage, cells, max_nod
             if footholds[j] >= target_x and (goal < 0 or risk[node] + slow[j] < goal_risk):
                 goal, goal_risk = j, risk[node] + slow[j]
         if goal >= 0:
-            add_node(tree, size, risk, node, angles[goal], footholds[goal], apexes[goal], 0.0, goal_risk)
+            add_node(tree, size, risk, expanded_flag, node, angles[goal], footholds[goal], apexes[goal], 0.0, goal_risk)
             goals[0], n_goals, stop = size, 1, GOALS
             size += 1
             break
@@ -116,7 +114,7 @@ def pruned_best_first(root, terr, p, net, sin_a, cos_a, s, stage, cells, max_nod
                     if risk[held] <= rk or expanded_flag[held]:
                         continue
                 priority = risk_cost * rk - apexes[j, 0]
-                add_node(tree, size, risk, node, angles[j], footholds[j], apexes[j], priority, rk)
+                add_node(tree, size, risk, expanded_flag, node, angles[j], footholds[j], apexes[j], priority, rk)
                 seen[key] = size
                 keys, ids, heap = heap_push(keys, ids, heap, priority, size)
                 size += 1

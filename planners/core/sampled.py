@@ -18,7 +18,7 @@ from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPA
                                 WINDOW_END, aim_candidates, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.robust import FAILED_CHECK, pop_admitted, root_flights
-from planners.core.tree import EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, heap_push, new_tree
+from planners.core.tree import EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, grown, heap_push, new_tree
 
 # fields of the window settings tuple (``window_settings`` in planners/core/search.py)
 N_CELLS, ANCHOR, S0, LENGTH, SPEED, DITCH_FLOOR, SUBCELLS, MASK_DITCHES, TEMPERATURE, FLOOR = range(10)
@@ -110,18 +110,6 @@ def weighted_order(p, rng):
     return idx[np.argsort(keys)]
 
 
-
-
-@njit(cache=True)
-def _grown(a, need):
-    """``a`` with room for ``need`` entries along its first axis (a copy twice as large when needed)."""
-    if need <= a.shape[0]:
-        return a
-    out = np.empty((max(2 * a.shape[0], need),) + a.shape[1:], a.dtype)
-    out[:a.shape[0]] = a
-    return out
-
-
 @njit(cache=True)
 def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, width, rob, target_x, weights,
                        reexpand, n_sequences, max_nodes, max_ode_calls, deadline):
@@ -164,12 +152,12 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
                 order = weighted_order(np.maximum(prob, win[FLOOR]), rng)
                 slot = len(slot_of)
                 slot_of[node] = slot
-                start, count, n_order, pos, n_ready = (_grown(start, slot + 1), _grown(count, slot + 1),
-                                                       _grown(n_order, slot + 1), _grown(pos, slot + 1),
-                                                       _grown(n_ready, slot + 1))
-                ready = _grown(ready, slot + 1)
-                cand_x, cand_theta = _grown(cand_x, n_cand + x_l.shape[0]), _grown(cand_theta, n_cand + x_l.shape[0])
-                cand_order = _grown(cand_order, n_cand + x_l.shape[0])
+                start, count, n_order, pos, n_ready = (grown(start, slot + 1), grown(count, slot + 1),
+                                                       grown(n_order, slot + 1), grown(pos, slot + 1),
+                                                       grown(n_ready, slot + 1))
+                ready = grown(ready, slot + 1)
+                cand_x, cand_theta = grown(cand_x, n_cand + x_l.shape[0]), grown(cand_theta, n_cand + x_l.shape[0])
+                cand_order = grown(cand_order, n_cand + x_l.shape[0])
                 start[slot], count[slot], n_order[slot] = n_cand, x_l.shape[0], order.shape[0]
                 pos[slot], n_ready[slot] = 0, 0
                 cand_x[n_cand:n_cand + x_l.shape[0]] = x_l

@@ -43,6 +43,17 @@ def new_tree(root_x, root_z, root_xdot, capacity):
 
 
 @njit(cache=True)
+def grown(a, need):
+    """``a`` with room for ``need`` entries along its first axis (a copy twice as large when needed; the new entries
+    are not set)."""
+    if need <= a.shape[0]:
+        return a
+    out = np.empty((max(2 * a.shape[0], need),) + a.shape[1:], a.dtype)
+    out[:a.shape[0]] = a
+    return out
+
+
+@njit(cache=True)
 def reserve(tree, size, extra):
     """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed)."""
     parent, angle, foothold, apex, cost, depth = tree
