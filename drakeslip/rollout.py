@@ -54,7 +54,8 @@ class Rollout:
 def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, footholds: Sequence[float] | None = None,
             leg_angles: Sequence[float] | Callable | None = None, controller=None, backend: str = "drake",
             max_hops: int | None = None, angle_errors=None, apex_errors=None, sensed_terrain: Terrain | None = None,
-            log: bool = False, integrator=None, max_time: float | None = None) -> Rollout:
+            log: bool = False, integrator=None, max_time: float | None = None,
+            model: SlipParams | None = None) -> Rollout:
     """Hop from ``apex`` over ``terrain`` with the hopper ``params`` until a failure or the commands run out.
 
     Commands, exactly one of: ``footholds``, each aimed at from the apex reached by ``controller`` (a
@@ -64,7 +65,9 @@ def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, foothol
     ``sensed_terrain`` is what the controller aims on (default: ``terrain``). ``backend``: ``"drake"`` (the hybrid
     simulator; ``log``, ``integrator`` and ``max_time`` go to ``drakeslip.simulate``), ``"fast"``, or
     ``"multibody"`` (the multibody robot built around ``params``, ``drakeslip.multibody``: footholds only, aimed
-    at by the robot's own controller; ``log`` keeps its trajectory)."""
+    at by the robot's own controller, built for the hopper ``model``, default ``params``: a noise profile's model
+    mismatch runs a hopper whose spring, mass and friction the controller does not know; ``log`` keeps its
+    trajectory)."""
     params = params or SlipParams()
     apex = check_apex(apex, terrain, params)
     angle_errors = None if angle_errors is None else np.asarray(angle_errors, dtype=np.float64)[None]
@@ -72,13 +75,13 @@ def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, foothol
     return rollouts(np.array([apex], dtype=np.float64), terrain, params, footholds=footholds, leg_angles=leg_angles,
                     controller=controller, backend=backend, max_hops=max_hops, angle_errors=angle_errors,
                     apex_errors=apex_errors, sensed_terrain=sensed_terrain, log=log, integrator=integrator,
-                    max_time=max_time)[0]
+                    max_time=max_time, model=model)[0]
 
 
 def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, leg_angles=None, controller=None,
              backend: str = "fast", max_hops: int | None = None, angle_errors=None, apex_errors=None,
              sensed_terrain: Terrain | None = None, log: bool = False, integrator=None,
-             max_time: float | None = None) -> list[Rollout]:
+             max_time: float | None = None, model: SlipParams | None = None) -> list[Rollout]:
     """``rollout`` from each row of ``starts`` (n, 3), with per-draw errors ``angle_errors`` (n, hops) and
     ``apex_errors`` (n, hops, 3). On the fast backend all draws advance together, one batched step-map call per
     hop. A start that is not above the terrain fails its first hop with a TRIP (its foot starts below ground)."""
@@ -95,7 +98,8 @@ def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, le
     if backend == "fast":
         return _fast(starts, terrain, params, command, hops)
     if backend == "multibody":
-        return [_multibody(i, start, terrain, params, command, hops, log, max_time) for i, start in enumerate(starts)]
+        return [_multibody(i, start, terrain, params, command, hops, log, max_time, model)
+                for i, start in enumerate(starts)]
     return [_drake(i, start, terrain, params, command, hops, log, integrator, max_time)
             for i, start in enumerate(starts)]
 
@@ -190,7 +194,7 @@ def _fast(starts, terrain, params, command: _Commands, hops) -> list[Rollout]:
     return records
 
 
-def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_time) -> Rollout:
+def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_time, known) -> Rollout:
     from drakeslip.multibody.execute import execute
     from drakeslip.multibody.robot import RobotParams
 
@@ -202,7 +206,8 @@ def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_
     apex_errors = None if command.apex_errors is None else command.apex_errors[draw]
     angle_errors = None if command.angle_errors is None else command.angle_errors[draw]
     hops = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
-                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time)
+                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time,
+                   known=None if known is None else RobotParams(slip=known))
     failure = hops.failure
     return Rollout(list(hops.footholds), list(hops.apexes), list(hops.leg_angles),
                    None if failure is None else failure.mode, -1 if failure is None else failure.hop,

@@ -109,9 +109,11 @@ class FootstepPlannerSystem(LeafSystem):
 
 def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipParams, robot: RobotParams | None = None,
                       *, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
-                      replan_every: int = 1, inject_energy: bool = True, meshcat=None) -> HopperDiagram:
+                      replan_every: int = 1, inject_energy: bool = True, meshcat=None,
+                      known: RobotParams | None = None) -> HopperDiagram:
     """Plant and scene graph (the robot, ``terrain``), the planner system (``planner`` for the template
-    ``params``) and the controller, with optional Meshcat, as one Diagram (``HopperDiagram.diagram``)."""
+    ``params``) and the controller (for the robot ``known``, default ``robot``), with optional Meshcat, as one
+    Diagram (``HopperDiagram.diagram``)."""
     robot = robot or RobotParams(slip=SlipParams(friction=params.friction))
 
     def make_planner(layout: StateLayout) -> FootstepPlannerSystem:
@@ -120,7 +122,8 @@ def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipPara
         system.set_name("footstep_planner")
         return system
 
-    return build_diagram(terrain, robot, make_planner=make_planner, inject_energy=inject_energy, meshcat=meshcat)
+    return build_diagram(terrain, robot, make_planner=make_planner, inject_energy=inject_energy, meshcat=meshcat,
+                         known=known)
 
 
 def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: RobotParams | None = None, *,
@@ -130,15 +133,18 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the closed-loop Diagram, replanning at every
     apex, until the body passes ``goal_x`` at an apex, a failure, no plan, or ``max_hops``. Returns {"id",
     "success", "failure", "what", "final_x", "plans", "hops", "max_pitch", "simulated_s", "wall_s"} (and "log",
-    the HopLog, with ``trajectory``). Noise draws come from ``seed`` and the case's id."""
+    the HopLog, with ``trajectory``). Noise draws come from ``seed`` and the case's id; under a model mismatch the
+    plant is the drawn robot ("executed_params") and the controller keeps ``robot``'s values, as the SLIP's
+    controller keeps the model's."""
     noise = noise or NoiseProfile()
     rng_seed = [seed, zlib.crc32(case.id.encode())]
-    robot = robot or RobotParams(slip=SlipParams(friction=params.friction))
+    model = robot or RobotParams(slip=SlipParams(friction=params.friction))
+    robot = model
     if not noise.silent:   # the case's model mismatch: the robot's spring, mass and friction drawn once
-        robot = replace(robot, slip=noise.executed_params(robot.slip, np.random.default_rng(rng_seed)))
+        robot = replace(model, slip=noise.executed_params(model.slip, np.random.default_rng(rng_seed)))
     hd = build_closed_loop(planner, case.terrain, goal_x, params, robot, noise=noise,
                            seed=np.random.SeedSequence(rng_seed).generate_state(1)[0], map_filter=map_filter,
-                           replan_every=replan_every, inject_energy=inject_energy, meshcat=meshcat)
+                           replan_every=replan_every, inject_energy=inject_energy, meshcat=meshcat, known=model)
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     apex = ApexState(*map(float, case.apex))

@@ -1,5 +1,6 @@
 """The multibody hopper: its model and terrain geometry, the closed loop crossing a ditch, the controller's energy
-injection mattering, and the planner system in a diagram built by hand."""
+injection mattering, the planner system in a diagram built by hand, and the controller built for the model under a
+noise profile's model mismatch."""
 import importlib.util
 from pathlib import Path
 from types import SimpleNamespace
@@ -72,6 +73,47 @@ def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
     assert all(record["success"] for record in planner_system.records)
     xs = [record["apex"][0] for record in planner_system.records]
     assert xs == sorted(xs)
+
+
+def test_under_model_mismatch_the_controller_keeps_the_models_values(monkeypatch):
+    """The plant is the drawn robot, the controller is built for the model (as the SLIP's controller is)."""
+    import planners.drake_system as drake_system
+    from drakeslip.noise import profile
+
+    built = {}
+
+    def build(*args, **kwargs):
+        built["hd"] = real_build(*args, **kwargs)
+        raise StopIteration   # the diagram is all this test looks at
+
+    real_build = drake_system.build_closed_loop
+    monkeypatch.setattr(drake_system, "build_closed_loop", build)
+    with pytest.raises(StopIteration):
+        drake_system.run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams(), noise=profile("model"))
+    hd = built["hd"]
+    assert hd.controller.params == RobotParams()
+    body_mass = hd.plant.GetBodyByName("body").default_mass()
+    assert hd.params.slip != RobotParams().slip and body_mass == pytest.approx(hd.params.slip.mass)
+    assert body_mass != pytest.approx(RobotParams().slip.mass)
+
+
+def test_a_multibody_rollout_builds_its_controller_for_the_model(monkeypatch):
+    import drakeslip.multibody.execute as execute_module
+    from drakeslip.controller import StepLengthController
+    from drakeslip.rollout import rollout
+
+    seen = {}
+
+    def execute(start, terrain, footholds, robot, **kwargs):
+        seen.update(robot=robot, known=kwargs["known"])
+        raise StopIteration
+
+    monkeypatch.setattr(execute_module, "execute", execute)
+    drawn = ds.SlipParams(stiffness=3300.0, mass=7.1)
+    with pytest.raises(StopIteration):
+        rollout((0.0, 0.8, 1.0), ds.Terrain.flat(), drawn, footholds=[0.3], backend="multibody",
+                controller=StepLengthController.load_default(), model=ds.SlipParams())
+    assert seen["robot"].slip == drawn and seen["known"].slip == ds.SlipParams()
 
 
 def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():

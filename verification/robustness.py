@@ -186,7 +186,7 @@ def _run(record: PlanRecord, draws: list, hops: int, controller, backend: str):
             failures[i], failed[i] = int(FailureMode.TRIP), 0  # a start below the ground: its foot is too
             continue
         run = rollout(d.start, record.terrain, d.params, footholds=footholds, controller=controller,
-                      backend=backend, apex_errors=d.apex_errors, angle_errors=d.angle_errors,
+                      backend=backend, apex_errors=d.apex_errors, angle_errors=d.angle_errors, model=record.params,
                       sensed_terrain=d.sensed)
         failures[i], failed[i] = int(run.failure or 0), run.failed_hop
     return failures, failed

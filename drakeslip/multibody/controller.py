@@ -8,7 +8,8 @@ plan's apexes have). Contact is inferred from the leg's compression, never from 
 limit, applied one control period after the measurement it comes from.
 
 Phases (the discrete state's ``PHASE``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` to clear
-the ground and swings toward the touchdown angle; DESCENT, from apex (vertical velocity reaching zero) to
+the ground and swings to the neutral angle (half the stance's travel ahead, Raibert's), where it waits for the
+footholds the planner chooses at the apex; DESCENT, from apex (vertical velocity reaching zero) to
 touchdown (the leg compressing): the leg extends to its stop and the hip keeps it at the angle that lands the foot
 on the commanded foothold, recomputed each period from the body's ballistic path; STANCE, to liftoff (the leg back
 at its stop): the hip torque keeps the body level (within the friction cone's share of the leg force) and the leg
@@ -248,7 +249,12 @@ class HopperController(LeafSystem):
                 force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
         else:
             step = int(s[STEP])
-            if step < len(command.footholds):
+            if phase == ASCENT and step < len(command.footholds):
+                # the planner chooses the next foothold at the apex, from the apex reached: a leg swung before
+                # then toward the last plan's next foothold swings back when the new plan moves it, and each
+                # swing turns the body (swing_ratio); the hops after such swings stray from the template's
+                target = self.raibert_angle(xd, xd)
+            elif step < len(command.footholds):
                 foothold = command.footholds[step]
                 ground = self._heights(command.terrain)(foothold)
                 ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)

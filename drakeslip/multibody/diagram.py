@@ -46,15 +46,17 @@ def add_robot_and_terrain(builder, terrain: Terrain, params: RobotParams):
 
 
 def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, make_planner=None,
-                  inject_energy: bool = True, meshcat=None) -> HopperDiagram:
-    """The closed loop on ``terrain``: plant and scene graph, the controller (``inject_energy`` as there), and
+                  inject_energy: bool = True, meshcat=None, known: RobotParams | None = None) -> HopperDiagram:
+    """The closed loop on ``terrain``: plant and scene graph (the robot ``params``), the controller (for the robot
+    ``known``, default ``params``: under a noise profile's model mismatch the controller keeps the model's spring,
+    mass and friction while the plant has the drawn ones; ``inject_energy`` as there), and
     the command from the system ``make_planner(layout)`` returns (ports ``state`` in and ``command`` out, e.g.
     ``planners.drake_system.FootstepPlannerSystem``) or, without one, from a fixed value the caller sets on the
     diagram's ``command`` input (``set_command``). ``meshcat``: a ``pydrake.geometry.Meshcat`` to draw into."""
     params = params or RobotParams()
     builder = DiagramBuilder()
     plant, scene_graph, parts, layout = add_robot_and_terrain(builder, terrain, params)
-    controller = builder.AddSystem(HopperController(params, layout, inject_energy))
+    controller = builder.AddSystem(HopperController(known or params, layout, inject_energy))
     controller.set_name("hopper_controller")
     builder.Connect(plant.get_state_output_port(), controller.state_port)
     builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port())

@@ -22,12 +22,12 @@ LOSS_PRIOR = (0.10, 0.035)
 _built: dict = {}
 
 
-def _diagram(terrain: Terrain, robot: RobotParams, inject_energy: bool):
+def _diagram(terrain: Terrain, robot: RobotParams, inject_energy: bool, known: RobotParams | None = None):
     """The diagram for this terrain and robot, reused while they stay the same (building one takes ~0.1 s)."""
-    key = (id(terrain), robot, inject_energy)
+    key = (id(terrain), robot, inject_energy, known)
     if key not in _built:
         _built.clear()
-        _built[key] = (build_diagram(terrain, robot, inject_energy=inject_energy), terrain)
+        _built[key] = (build_diagram(terrain, robot, inject_energy=inject_energy, known=known), terrain)
     return _built[key][0]
 
 
@@ -38,16 +38,18 @@ def loss_prior(xdot: float) -> float:
 
 def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None, *,
             sensed_terrain: Terrain | None = None, apex_errors=None, angle_errors=None, inject_energy: bool = True,
-            trajectory: bool = False, max_time: float | None = None) -> HopLog:
+            trajectory: bool = False, max_time: float | None = None, known: RobotParams | None = None) -> HopLog:
     """Hop the robot from ``apex`` (body level, leg retracted and aimed at the first foothold) over ``terrain``,
     touching down on each of ``footholds`` (aimed at on ``sensed_terrain``, default ``terrain``) and stopping at
     the apex after the last. ``apex_errors`` (per hop, (x, z, xdot)) and ``angle_errors`` (per hop, rad) as in
     ``drakeslip.rollout``. Returns the HopLog: footholds touched, absolute leg angles at touchdown, apexes, the
-    named failure (a STALL when the hops do not finish in time), the largest pitch, the trajectory when asked."""
+    named failure (a STALL when the hops do not finish in time), the largest pitch, the trajectory when asked.
+    ``known``: the robot its controller is built for (default ``robot``; a noise profile's model mismatch runs a
+    ``robot`` whose spring, mass and friction differ from the ``known`` model's)."""
     robot = robot or RobotParams()
     apex = ApexState(*map(float, apex))
     footholds = tuple(float(f) for f in footholds)
-    hd = _diagram(terrain, robot, inject_energy)
+    hd = _diagram(terrain, robot, inject_energy, known)
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     errors = () if apex_errors is None else tuple(tuple(map(float, e)) for e in np.asarray(apex_errors))
