@@ -17,9 +17,10 @@ speed, drop and offset in the units of the hopper the network was trained for (s
 over the length factor) and polishes with the hopper's own L0 and g. For the trained hopper the factors are exactly
 1.0 and the angles are the trained controller's to the bit.
 
-Inference runs in numpy, not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is needed
-only to read and write the weights file (training is controller_training.py). The planning core aims its candidates
-with the same computation compiled (``fast_controller.aim_rows``, from ``arrays()``), to the bit.
+Inference is compiled (``fast_controller.aim_rows``, from ``arrays()``: numpy's BLAS products and numpy's tanh, called
+without a trip back into Python), not torch, whose dispatch costs more than a 3-64-64-64-1 MLP's arithmetic; torch is
+needed only to read and write the weights file (training is controller_training.py). The planning core aims its
+candidates with the same function.
 
 ``refine=True`` (the default) polishes the MLP's angle with Newton steps on the flight phase (compiled, in
 ``leg_aim.py``), which the fast step map integrates in closed form: the foot lands at
@@ -52,13 +53,6 @@ class ControllerConfig:
     hidden: int = 64
     layers: int = 3           # hidden layers
     max_angle: float = 0.8    # [rad] outputs are clipped to the trained range of leg angles
-
-
-def features(apex: np.ndarray, footholds: np.ndarray, terrain: Terrain) -> np.ndarray:
-    """(N, 3) network inputs for apex rows (N, 3) (or one apex) and N desired footholds."""
-    apex = np.broadcast_to(np.asarray(apex, dtype=np.float64), (footholds.size, 3))
-    drop = apex[:, 1] - terrain.height_at(footholds)
-    return np.stack([apex[:, 2], drop, footholds - apex[:, 0]], axis=1)
 
 
 class StepLengthController:
@@ -111,15 +105,6 @@ class StepLengthController:
         return self.views[key]
 
     # ---- inference -----------------------------------------------------------------------------------
-    def _forward(self, feats: np.ndarray) -> np.ndarray:
-        if self.feature_scale is not None:
-            feats = feats / self.feature_scale
-        x = (feats - self.feature_mean) / self.feature_std
-        for w, b in self._layers:
-            x = np.tanh(x @ w + b)
-        theta = (x @ self._head[0] + self._head[1])[:, 0] * self.config.max_angle
-        return np.minimum(np.maximum(theta, -self.config.max_angle), self.config.max_angle)
-
     def leg_angles(self, apex, footholds, terrain: Terrain, refine: bool | None = None) -> np.ndarray:
         """Leg angles for many desired footholds: from one apex (x, z, xdot), or one apex row per foothold."""
         footholds = np.ascontiguousarray(footholds, dtype=np.float64).reshape(-1)
@@ -130,14 +115,14 @@ class StepLengthController:
             raise ValueError(f"apex must be one (x, z, xdot) or shape ({footholds.size}, 3), got {apex_arr.shape}")
         if not np.all(np.isfinite(footholds)) or not np.all(np.isfinite(apex_arr)):
             raise ValueError("leg_angles: footholds and apex must be finite")
-        feats = features(apex_arr, footholds, terrain)
-        theta = self._forward(feats)
-        if self.refine if refine is None else refine:
-            from drakeslip.leg_aim import polish_angles  # compiled on first use: --help and imports stay light
+        from drakeslip.fast_controller import aim_rows  # compiled on first use: --help and imports stay light
 
-            speed, drop, target = np.ascontiguousarray(feats.T)
-            theta = polish_angles(speed, drop, target, theta, self.leg_length, self.gravity, self.config.max_angle)
-        return theta
+        net = self.arrays().astuple()
+        if refine is not None and bool(refine) != self.refine:
+            net = net[:12] + (bool(refine),) + net[13:]
+        apexes = np.ascontiguousarray(np.broadcast_to(apex_arr, (footholds.size, 3)))
+        grounds = np.asarray(terrain.height_at(footholds), dtype=np.float64).reshape(-1)
+        return aim_rows(apexes, footholds, grounds, net)
 
     def leg_angle(self, apex, foothold_x: float, terrain: Terrain, refine: bool | None = None) -> float:
         """The leg angle to command at ``apex`` so the foot lands at ``foothold_x``."""

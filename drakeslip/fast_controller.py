@@ -1,17 +1,72 @@
-"""The step-length controller for compiled code: ``aim_rows`` is ``StepLengthController.leg_angles`` to the bit,
-callable from the planning core (planners/core), which aims every batch of candidate footholds with it.
+"""The step-length controller's inference, compiled: ``aim_rows`` is what ``StepLengthController.leg_angles``
+returns, and the planning core (planners/core) aims every batch of candidate footholds and perturbed robots with it.
 
-To be the controller's to the bit, ``aim_rows`` multiplies by numpy's BLAS routine (numba's ``np.dot`` calls the
-same one) and takes numpy's tanh (its vectorized tanh rounds otherwise than the C library's) in one call per layer;
-the polish is the controller's compiled one (``drakeslip.leg_aim.polish_one``)."""
+It computes the network as numpy does (``x @ w + b``, ``np.tanh``): numpy's BLAS routine for the products (numba's
+``np.dot`` calls the same one) and numpy's own inner loop for float64 tanh (its vectorized tanh rounds otherwise than
+the C library's), found on the ufunc object (``numpy_loop``) and checked against ``np.tanh`` when this module loads,
+so no call goes back into Python and a batch of one row costs little more than its arithmetic
+(tests/test_core.py checks the angles against the network in numpy, to the bit). The polish is
+``drakeslip.leg_aim.polish_one``."""
 from __future__ import annotations
 
+import ctypes
 from dataclasses import dataclass
 
 import numpy as np
-from numba import njit, objmode
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 from drakeslip.leg_aim import polish_one
+
+# numpy's inner loop: void loop(char **args, npy_intp const *dimensions, npy_intp const *steps, void *data)
+_LOOP = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p)
+
+
+class _UFuncHead(ctypes.Structure):
+    """The leading fields of numpy's ``PyUFuncObject`` (numpy/ufuncobject.h, the same since numpy 1.0)."""
+
+    _fields_ = [("ob_refcnt", ctypes.c_ssize_t), ("ob_type", ctypes.c_void_p), ("nin", ctypes.c_int),
+                ("nout", ctypes.c_int), ("nargs", ctypes.c_int), ("identity", ctypes.c_int),
+                ("functions", ctypes.POINTER(ctypes.c_void_p)), ("data", ctypes.POINTER(ctypes.c_void_p)),
+                ("ntypes", ctypes.c_int), ("reserved1", ctypes.c_int), ("name", ctypes.c_char_p)]
+
+
+def numpy_loop(ufunc: np.ufunc, signature: str = "d->d") -> tuple:
+    """(address of numpy's inner loop for a one-input ``ufunc`` on ``signature``, its data pointer), the loop numpy
+    itself runs on a float64 array, checked to give ``ufunc``'s values to the bit on probe values; RuntimeError if
+    this numpy's ufunc objects are not laid out as expected."""
+    head = _UFuncHead.from_address(id(ufunc))
+    if head.name != ufunc.__name__.encode() or (head.nin, head.nout) != (1, 1) or head.ntypes != len(ufunc.types):
+        raise RuntimeError(f"numpy {np.__version__}: the ufunc object of {ufunc.__name__} is not laid out as "
+                           "numpy/ufuncobject.h says")
+    index = ufunc.types.index(signature)
+    loop, data = head.functions[index], head.data[index] or 0
+    probe = np.concatenate((np.linspace(-25.0, 25.0, 4001), [0.0, -0.0, 1e-300, -1e-300, 710.0, -710.0]))
+    out = np.empty_like(probe)
+    pointers = (ctypes.c_void_p * 2)(probe.ctypes.data, out.ctypes.data)
+    dims, steps = (ctypes.c_ssize_t * 1)(probe.size), (ctypes.c_ssize_t * 2)(8, 8)
+    _LOOP(loop)(ctypes.addressof(pointers), ctypes.addressof(dims), ctypes.addressof(steps), data)
+    if not np.array_equal(out, ufunc(probe)):
+        raise RuntimeError(f"numpy {np.__version__}: the inner loop found for {ufunc.__name__} ({signature}) does not "
+                           "give its values")
+    return loop, data
+
+
+TANH_LOOP = numpy_loop(np.tanh)
+
+
+@intrinsic
+def _call_loop(typingctx, loop, pointers, dims, steps, data):
+    """Call the inner loop at address ``loop`` with the addresses of its argument arrays."""
+    def codegen(context, builder, signature, args):
+        byte_pointer = ir.IntType(8).as_pointer()
+        function = ir.FunctionType(ir.VoidType(), [byte_pointer] * 4)
+        address = builder.inttoptr(args[0], function.as_pointer())
+        builder.call(address, [builder.inttoptr(a, byte_pointer) for a in args[1:]])
+        return context.get_dummy_value()
+
+    return types.void(loop, pointers, dims, steps, data), codegen
 
 
 @dataclass(frozen=True)
@@ -36,28 +91,29 @@ class ControllerArrays:
     refine: bool
 
     def astuple(self) -> tuple:
+        """The fields in order, then numpy's tanh loop and its data pointer (``TANH_LOOP``) for ``aim_rows``."""
         return (self.w_in, self.b_in, self.w_hidden, self.b_hidden, self.w_head, self.b_head, self.mean, self.std,
-                self.scale, self.max_angle, self.leg_length, self.gravity, self.refine)
-
-
-def _numpy_tanh(x):
-    return np.tanh(x)
+                self.scale, self.max_angle, self.leg_length, self.gravity, self.refine, *TANH_LOOP)
 
 
 @njit(cache=True)
-def _tanh_rows(x):
-    """numpy's tanh of a matrix (its vectorized tanh rounds otherwise than the C library's, which compiled code
-    calls): one call per layer, so the batch's angles are numpy's."""
-    with objmode(y="float64[:, ::1]"):
-        y = _numpy_tanh(x)
+def _tanh_rows(x, loop, data):
+    """numpy's tanh of a C-contiguous array, by numpy's inner ``loop`` (``TANH_LOOP``)."""
+    y = np.empty_like(x)
+    pointers = np.empty(2, np.uintp)
+    pointers[0], pointers[1] = x.ctypes.data, y.ctypes.data
+    dims, steps = np.full(1, x.size, np.intp), np.full(2, 8, np.intp)
+    _call_loop(loop, pointers.ctypes.data, dims.ctypes.data, steps.ctypes.data, data)
     return y
 
 
 @njit(cache=True)
 def aim_rows(apexes, footholds, grounds, net):
-    """``StepLengthController.leg_angles`` for one apex row (x, z, xdot) per foothold, to the bit: the same features,
-    the network's products by the same BLAS routine numpy calls (``np.dot``), numpy's tanh, the same polish."""
-    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle, leg, gravity, refine = net
+    """The leg angle for each row: apex (x, z, xdot), desired foothold and the ground's height there (``net``:
+    ``ControllerArrays.astuple()``); the network's features (speed, drop, offset) are scaled to the trained hopper's
+    units and normalized, the angle clipped to +-max_angle and, with ``refine``, polished."""
+    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle, leg, gravity, refine = net[:13]
+    loop, data = net[13], net[14]
     n = footholds.shape[0]
     feats = np.empty((n, 3))
     for i in range(n):
@@ -65,9 +121,9 @@ def aim_rows(apexes, footholds, grounds, net):
         feats[i, 1] = apexes[i, 1] - grounds[i]
         feats[i, 2] = footholds[i] - apexes[i, 0]
     x = (feats / scale - mean) / std
-    x = _tanh_rows(np.dot(x, w_in) + b_in)
+    x = _tanh_rows(np.dot(x, w_in) + b_in, loop, data)
     for layer in range(w_hidden.shape[0]):
-        x = _tanh_rows(np.dot(x, w_hidden[layer]) + b_hidden[layer])
+        x = _tanh_rows(np.dot(x, w_hidden[layer]) + b_hidden[layer], loop, data)
     theta = np.empty(n)
     head = np.dot(x, w_head.reshape(-1, 1))
     for i in range(n):

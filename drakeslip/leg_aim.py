@@ -1,33 +1,22 @@
-"""The controller's Newton polish, compiled (``StepLengthController.leg_angles`` with ``refine``): a planner calls
-it for every candidate foothold and every perturbed robot, a few rows at a time, where numpy's per-call cost would
-be most of the controller's time."""
+"""The controller's Newton polish, compiled: ``fast_controller.aim_rows`` (``StepLengthController.leg_angles`` with
+``refine``) polishes every row's angle with it."""
 from __future__ import annotations
 
 import math
 
-import numpy as np
 from numba import njit
 
 NEWTON_STEPS = 6
 
 
 @njit(cache=True)
-def polish_angles(speed, drop, target, theta, leg_length, gravity, max_angle):
+def polish_one(v, d, target_i, th, leg_length, gravity, max_angle):
     """Newton steps on the closed-form touchdown offset(theta) = L0 sin(theta) + xdot T(theta), with the fall time
     T = sqrt(2 (drop - L0 cos(theta)) / g); d offset / d theta = L0 cos(theta) + xdot L0 sin(theta) / (g T), for
-    each row's (speed, drop, target offset) from the network's ``theta``. When the body is less than L0 above the
-    landing surface (a higher step), the foot only clears it for |theta| > acos(drop / L0): iterates are kept on
-    that side (a step that would cross moves half way to the boundary), so a hop planned just above the step's
-    top is reproduced, not tripped."""
-    out = np.empty(theta.size)
-    for i in range(theta.size):
-        out[i] = polish_one(speed[i], drop[i], target[i], theta[i], leg_length, gravity, max_angle)
-    return out
-
-
-@njit(cache=True)
-def polish_one(v, d, target_i, th, leg_length, gravity, max_angle):
-    """``polish_angles`` for one row: the polished angle from the network's ``th``."""
+    one row's speed ``v``, drop ``d`` and target offset, from the network's ``th``. When the body is less than L0
+    above the landing surface (a higher step), the foot only clears it for |theta| > acos(drop / L0): iterates are
+    kept on that side (a step that would cross moves half way to the boundary), so a hop planned just above the
+    step's top is reproduced, not tripped."""
     side = -1.0 if target_i < 0 else 1.0
     boundary = side * math.acos(min(max(d / leg_length, -1.0), 1.0))  # foot level with the surface at apex
     if not d - leg_length * math.cos(th) > 1e-12:

@@ -61,6 +61,40 @@ def test_bench_controller_call(benchmark, controller, n):
     benchmark(controller.leg_angles, APEX, np.linspace(0.3, 1.2, n), TERRAIN)
 
 
+@pytest.mark.parametrize("n", [1, 4, 40])
+def test_bench_compiled_controller_call(benchmark, controller, n):
+    """The compiled controller (``aim_rows``, what the planning core calls) aiming n footholds from one apex, called
+    from Python (its dispatch is in the time): a sampled search aims 4 at a time, Step-space a node's grid."""
+    import numpy as np
+
+    from drakeslip.fast_controller import aim_rows
+
+    footholds = np.linspace(0.3, 1.2, n)
+    apexes = np.tile(np.asarray(APEX, dtype=float), (n, 1))
+    benchmark(aim_rows, apexes, footholds, np.asarray(TERRAIN.height_at(footholds), dtype=float),
+              controller.arrays().astuple())
+
+
+@pytest.mark.parametrize("part", ["new window", "node"])
+def test_bench_compiled_model(benchmark, part):
+    """The compiled footstep model's work in a sampled search (planners/core/model.py), called from Python: a window
+    and bin under the body not seen before in the search (its CNN encoding and first-layer input gates), and every
+    node (the first step's logits of 40 candidate bins from the node's apex)."""
+    import numpy as np
+
+    from planners.checkpoints import SUBCELL_WEIGHTS
+    from planners.core.model import ModelArrays, encode, first_gates, first_step_logits
+    from planners.learned.lstm import load_model
+
+    arrays = ModelArrays(load_model(SUBCELL_WEIGHTS)).astuple()
+    window = np.random.default_rng(0).uniform(-0.3, 0.3, 110)
+    gates = first_gates(encode(window, 120, arrays), arrays)
+    if part == "new window":
+        benchmark(lambda: first_gates(encode(window, 120, arrays), arrays))
+    else:
+        benchmark(first_step_logits, np.array([1.2, 0.6, 0.4]), gates, arrays, np.arange(130, 170))
+
+
 def test_bench_lstm_step(benchmark):
     """One step of the footstep model in numpy (what LSTM-guided pays per node it expands)."""
     from planners.learned.inputs import encode_window

@@ -1,6 +1,7 @@
 """The compiled planning core (planners/core) against what it compiles: the model against torch, the controller
 against StepLengthController, and its searches against the Python best-first search, node for node."""
 import copy
+import math
 import time
 
 import numpy as np
@@ -34,7 +35,7 @@ def test_compiled_model_matches_torch(apex):
     terrain, apex_in, s0, _ = net.inputs(enc)
     arrays = ModelArrays(model).astuple()
     code = encode(terrain[0], enc.s0_bin(net.subcells), arrays)
-    logits = first_step_logits(apex_in[0], first_gates(code, arrays), code, arrays, np.empty(0, np.int64))
+    logits = first_step_logits(apex_in[0], first_gates(code, arrays), arrays, np.empty(0, np.int64))
     with torch.no_grad():   # copies: the loaded model is shared by every planner in the process
         double, _ = copy.deepcopy(model).double()(torch.tensor(terrain), torch.tensor(apex_in), torch.tensor(s0)[:, None])
         single, _ = model(torch.tensor(terrain).float(), torch.tensor(apex_in).float(),
@@ -43,13 +44,53 @@ def test_compiled_model_matches_torch(apex):
     assert np.abs(logits - single[0, 0].numpy()).max() < 1e-3 * max(1.0, np.abs(logits).max())
 
 
-def test_compiled_controller_is_the_controllers_to_the_bit():
-    controller = StepLengthController.load_default()
-    net = controller.arrays().astuple()
+def test_the_compiled_tanh_is_within_3e_16_of_libms():
+    from planners.core.model import tanh
+
+    tiny = np.geomspace(1e-300, 1.0, 601)
+    x = np.concatenate((np.linspace(-30.0, 30.0, 20001), tiny, -tiny, [0.0, 1e3, -1e3, 1e300]))
+    mine = np.array([tanh(v) for v in x])
+    assert np.abs(mine - np.array([math.tanh(v) for v in x])).max() <= 3e-16
+    assert math.copysign(1.0, tanh(-0.0)) == -1.0 and tanh(-1e300) == -1.0
+
+
+def test_the_logits_of_a_few_bins_are_those_of_every_bin():
+    model = load_model(SUBCELL_WEIGHTS)
+    arrays = ModelArrays(model).astuple()
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        gates = first_gates(encode(rng.uniform(-1, 1, 110), int(rng.integers(0, 440)), arrays), arrays)
+        apex = rng.uniform([0.5, 0.2, 0.0], [3.0, 1.5, 1.0])
+        bins = np.sort(rng.choice(440, 30, replace=False))
+        every = first_step_logits(apex, gates, arrays, np.empty(0, np.int64))
+        few = first_step_logits(apex, gates, arrays, bins)
+        np.testing.assert_allclose(few[bins], every[bins], rtol=0, atol=1e-12)
+        assert np.all(np.delete(few, bins) == -np.inf)
+
+
+def numpy_network(net, apexes, footholds, grounds):
+    """The controller's network in numpy (``x @ w + b``, ``np.tanh``), before the polish."""
+    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle = net[:10]
+    feats = np.stack([apexes[:, 2], apexes[:, 1] - grounds, footholds - apexes[:, 0]], axis=1)
+    x = np.tanh(((feats / scale - mean) / std) @ w_in + b_in)
+    for w, b in zip(w_hidden, b_hidden):
+        x = np.tanh(x @ w + b)
+    return np.clip((x @ w_head[:, None] + b_head)[:, 0] * max_angle, -max_angle, max_angle)
+
+
+def test_compiled_controller_is_the_network_in_numpy_to_the_bit():
+    """``aim_rows`` (what ``leg_angles`` returns and the core aims with) against the network computed by numpy,
+    for batches of every size the searches use, and for another hopper (scaled features)."""
     rng = np.random.default_rng(0)
-    for n in (1, 2, 5, 17, 40):
-        apexes = np.stack([rng.uniform(-1, 5, n), rng.uniform(0.6, 1.5, n), rng.uniform(0.3, 3.5, n)], axis=1)
-        footholds = apexes[:, 0] + rng.uniform(-0.3, 1.2, n)
+    for params in (PARAMS, SlipParams(leg_length=0.8, mass=20.0, stiffness=6000.0)):
+        controller = StepLengthController.load_default().for_params(params)
+        net = controller.arrays().astuple()
+        for n in (1, 2, 5, 17, 40, 300):
+            apexes = np.stack([rng.uniform(-1, 5, n), rng.uniform(0.6, 1.5, n), rng.uniform(0.3, 3.5, n)], axis=1)
+            footholds = apexes[:, 0] + rng.uniform(-0.3, 1.2, n)
+            grounds = rng.uniform(-0.2, 0.2, n)
+            assert np.array_equal(aim_rows(apexes, footholds, grounds, net[:12] + (False,) + net[13:]),
+                                  numpy_network(net, apexes, footholds, grounds))
         expected = controller.leg_angles(apexes, footholds, Terrain.flat())
         assert np.array_equal(aim_rows(apexes, footholds, np.zeros(n), net), expected)
 

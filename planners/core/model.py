@@ -12,13 +12,46 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 
-@njit(cache=True)
+# exp on [-50, 0] (``exp_neg``): k = round(a / ln 2) and r = a - k ln 2 (ln 2 in two parts, as Cody and Waite),
+# e^r by its Taylor polynomial of degree 13 (|r| <= ln 2 / 2: the first term left out is below 4e-18 of the sum),
+# times 2^k written into the exponent's bits. Within an ulp of libm's exp; a loop over a layer's units that calls
+# it vectorizes, which one calling libm's does not.
+LOG2E = 1.4426950408889634
+LN2_HI = 6.93147180369123816490e-01   # ln 2's leading bits: k * LN2_HI is exact for |k| < 2^20
+LN2_LO = 1.90821492927058770002e-10
+EXP_TAYLOR = tuple(1.0 / math.factorial(k) for k in range(14))
+EXP_FLOOR = -50.0  # e^-50 = 2e-22: 1 - e and 1 + e round to 1, so tanh and the sigmoid are exact below it
+
+
+@intrinsic
+def _float_of_bits(typingctx, bits):
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.DoubleType())
+
+    return types.float64(types.int64), codegen
+
+
+@njit(cache=True, fastmath={"contract"}, inline="always", error_model="numpy")
+def exp_neg(a):
+    """e^a for a <= 0 (a below EXP_FLOOR taken as EXP_FLOOR), within an ulp of ``math.exp``."""
+    a = max(a, EXP_FLOOR)
+    k = math.floor(a * LOG2E + 0.5)
+    r = (a - k * LN2_HI) - k * LN2_LO
+    c = EXP_TAYLOR
+    p = ((((((((((((c[13] * r + c[12]) * r + c[11]) * r + c[10]) * r + c[9]) * r + c[8]) * r + c[7]) * r + c[6]) * r
+                + c[5]) * r + c[4]) * r + c[3]) * r + c[2]) * r + c[1]) * r + c[0]
+    return p * _float_of_bits((np.int64(k) + 1023) << 52)
+
+
+@njit(cache=True, fastmath={"contract"}, inline="always", error_model="numpy")
 def tanh(x):
-    """tanh from one exp (a quarter of libm's tanh's cost), within 3e-16 of it."""
-    e = math.exp(-2.0 * abs(x))
+    """tanh from one exp, within 3e-16 of libm's tanh (an absolute bound: near 0 the two differ in relative terms)."""
+    e = exp_neg(-2.0 * abs(x))
     return math.copysign((1.0 - e) / (1.0 + e), x)
 
 
@@ -59,22 +92,32 @@ def stored(matrix: np.ndarray) -> np.ndarray:
 class ModelArrays:
     """A ``FootstepModel``'s weights for compiled code, each layer's matrix stored (inputs, outputs): ``astuple``
     gives (g0_w, g0_b, conv1_w (out, in, taps), conv1_b, conv2_w, conv2_b, fc_w, fc_b, the first layer's w_ih
-    (in, 4H), the later layers' w_ih (layers - 1, H, 4H), w_hh (layers, H, 4H), b (layers, 4H), head_w, head_b,
-    subcells)."""
+    (in, 4H), the later layers' w_ih (layers - 1, H, 4H), from_apex (layers, apex features, 4H), b (layers, 4H),
+    head_w, head_b, subcells, from_apex_b (layers, 4H), head_rows (bins, H)).
+
+    A node's LSTM step starts from the state ``g0`` gives for its apex, h = apex @ g0_w_h + g0_b_h, so each layer's
+    recurrent product h @ w_hh is apex @ (g0_w_h @ w_hh) + g0_b_h @ w_hh: ``from_apex`` and ``from_apex_b`` are
+    those two products, computed once here (the same sums in another order, equal but for rounding), and a node
+    costs a 3-row product instead of an H-row one. ``head_rows`` is the head's matrix a bin per row, for the logits
+    of a node's candidates' bins alone."""
 
     def __init__(self, model):
         w = {k: v.detach().double().cpu().numpy() for k, v in model.state_dict().items()}
         c = model.config
         self.config = c
-        layers = range(c.layers)
-        self.arrays = (np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy(), w["cnn.0.weight"].copy(),
+        layers, hidden = range(c.layers), c.hidden
+        g0_w, g0_b = np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy()
+        w_hh = [w[f"lstm.weight_hh_l{k}"].T for k in layers]
+        from_apex = np.stack([g0_w[:, k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
+        from_apex_b = np.stack([g0_b[k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
+        self.arrays = (g0_w, g0_b, w["cnn.0.weight"].copy(),
                        w["cnn.0.bias"].copy(), w["cnn.2.weight"].copy(), w["cnn.2.bias"].copy(),
                        stored(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(), stored(w["lstm.weight_ih_l0"].T),
                        stored(np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers[1:]]).reshape(
                            c.layers - 1, c.hidden, 4 * c.hidden)),
-                       stored(np.stack([w[f"lstm.weight_hh_l{k}"].T for k in layers])),
-                       np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"] for k in layers]),
-                       stored(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells))
+                       from_apex, np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"] for k in layers]),
+                       stored(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells), from_apex_b,
+                       stored(w["head.weight"]))
 
     def astuple(self) -> tuple:
         return self.arrays
@@ -103,16 +146,37 @@ def _conv_relu(x, w, b):
     return y
 
 
+@njit(cache=True, fastmath={"contract"})
+def _first_conv_relu(window, prev_bin, w, b, subcells):
+    """``_conv_relu`` of the image (the window's heights; the previous step one-hot, a channel per sub-cell) without
+    its zeros: the heights' taps, then the one weight each cell next to the previous step's cell meets. The zeros add
+    nothing, so the sums are ``_conv_relu``'s."""
+    n_out, taps, n = w.shape[0], w.shape[2], window.shape[0]
+    half = taps // 2
+    padded = np.zeros(n + 2 * half)
+    padded[half:half + n] = window
+    channel, cell = 1 + prev_bin % subcells, prev_bin // subcells
+    y = np.zeros((n_out, n))
+    for o in range(n_out):
+        row = y[o]
+        for t in range(taps):
+            wt = w[o, 0, t]
+            for c in range(n):
+                row[c] += wt * padded[t + c]
+        for c in range(max(cell - half, 0), min(cell + half + 1, n)):
+            row[c] += w[o, channel, cell - c + half]
+        for c in range(n):
+            row[c] = max(row[c] + b[o], 0.0)
+    return y
+
+
 @njit(cache=True)
 def encode(window, prev_bin, net):
     """The CNN's encoding (the LSTM's input) of the window's relative heights and a one-hot previous step at bin
     ``prev_bin``."""
     conv1_w, conv1_b, conv2_w, conv2_b, fc_w, fc_b, subcells = net[2], net[3], net[4], net[5], net[6], net[7], net[14]
-    n = window.shape[0]
-    image = np.zeros((1 + subcells, n))
-    image[0] = window
-    image[1 + prev_bin % subcells, prev_bin // subcells] = 1.0
-    features = _conv_relu(_conv_relu(image, conv1_w, conv1_b), conv2_w, conv2_b).reshape(-1)
+    first = _first_conv_relu(window, prev_bin, conv1_w, conv1_b, subcells)
+    features = _conv_relu(first, conv2_w, conv2_b).reshape(-1)
     out = np.empty(fc_w.shape[1])
     affine(features, fc_w, fc_b, out)
     for j in range(out.shape[0]):
@@ -120,7 +184,7 @@ def encode(window, prev_bin, net):
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
 def _sigmoid(x):
     return 0.5 * (1.0 + tanh(0.5 * x))
 
@@ -134,30 +198,29 @@ def first_gates(encoding, net):
     return out
 
 
-@njit(cache=True)
-def first_step_logits(apex_features, gates_in, encoding, net, bins):
-    """Logits of the model's first step from an apex (its three features), given the window's ``encoding`` and
-    its first layer's input gates ``gates_in``: of every bin when ``bins`` is empty, else of those ``bins`` (the
+@njit(cache=True, fastmath={"contract"}, error_model="numpy")
+def first_step_logits(apex_features, gates_in, net, bins):
+    """Logits of the model's first step from an apex (its three features), given its window's first layer's input
+    gates ``gates_in`` (``first_gates``): of every bin when ``bins`` is empty, else of those ``bins`` (the
     rest left at -inf)."""
-    g0_w, g0_b, w_ih, w_hh, b, head_w, head_b = net[0], net[1], net[9], net[10], net[11], net[12], net[13]
-    layers, hidden = w_hh.shape[0], w_hh.shape[1]
-    state = np.empty(g0_w.shape[1])
-    affine(apex_features, g0_w, g0_b, state)   # (h of every layer, then c of every layer)
+    g0_w, g0_b, w_ih, from_apex, b, head_w, head_b = net[0], net[1], net[9], net[10], net[11], net[12], net[13]
+    from_apex_b, head_rows = net[15], net[16]
+    layers, hidden = from_apex.shape[0], b.shape[1] // 4
+    cell = np.empty(layers * hidden)   # the initial c of every layer (g0's second half)
+    affine(apex_features, g0_w[:, layers * hidden:], g0_b[layers * hidden:], cell)
     gates = np.empty(4 * hidden)
+    extra = np.empty(4 * hidden)
     x = np.empty(hidden)
     for layer in range(layers):
-        h = state[layer * hidden:(layer + 1) * hidden]
-        c = state[(layers + layer) * hidden:(layers + layer + 1) * hidden]
-        affine(h, w_hh[layer], np.zeros(4 * hidden), gates)
+        affine(apex_features, from_apex[layer], from_apex_b[layer], gates)
         if layer == 0:
-            for j in range(4 * hidden):
-                gates[j] += gates_in[j]
+            extra[:] = gates_in
         else:
-            extra = np.empty(4 * hidden)
             affine(x, w_ih[layer - 1], b[layer], extra)
-            for j in range(4 * hidden):
-                gates[j] += extra[j]
-        for j in range(hidden):
+        for j in range(4 * hidden):
+            gates[j] += extra[j]
+        c = cell[layer * hidden:(layer + 1) * hidden]
+        for j in range(hidden):   # torch's gate order: input, forget, cell, output
             cj = _sigmoid(gates[hidden + j]) * c[j] + _sigmoid(gates[j]) * tanh(gates[2 * hidden + j])
             x[j] = _sigmoid(gates[3 * hidden + j]) * tanh(cj)
     logits = np.empty(head_w.shape[1])
@@ -165,11 +228,12 @@ def first_step_logits(apex_features, gates_in, encoding, net, bins):
         affine(x, head_w, head_b, logits)
         return logits
     logits[:] = -math.inf
-    for b in bins:
+    for j in bins:
+        row = head_rows[j]
         acc = 0.0
         for k in range(hidden):
-            acc += x[k] * head_w[k, b]
-        logits[b] = acc + head_b[b]
+            acc += x[k] * row[k]
+        logits[j] = acc + head_b[j]
     return logits
 
 

@@ -21,12 +21,15 @@ FAILED_CHECK = -2  # what ``pop_admitted`` returns for a popped node that failed
  EDGE_MARGIN, MIN_SPEED, FAN, LOOKAHEAD_DEPTH) = range(16)
 
 
+# the core's tuple for no robust check (depth 0): nothing in it is read or written
+NO_CHECK = (0, 0, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0),
+            np.zeros((0, 6)), np.zeros((0, 1)), np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN, 1)
+
+
 def robust_arrays(robustness, problem) -> tuple:
     """``robustness``'s particles for ``problem`` as the core's tuple; depth 0 (no check) for None."""
     if robustness is None:
-        empty = np.zeros((0, 3))
-        return (0, 0, empty, empty, np.zeros(0), np.zeros(0, np.int64), np.zeros(0), np.zeros((0, 6)),
-                np.zeros((0, 1)), np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN, 1)
+        return NO_CHECK
     particles = robustness.particles(problem.apex, problem.terrain, problem.params)
     w = particles.worlds
     return (int(robustness.depth), int(robustness.lookahead), particles.states, particles.apex_errors,

@@ -65,17 +65,15 @@ def node_window(x, z, xdot, terr, win):
 
 
 @njit(cache=True)
-def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, encodings, gates):
+def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, gates):
     """The model's probability of each candidate's bin for the step after the node at apex (x, z, xdot), 0 outside
     the window and (with ditch masking) in ditches; a window and bin seen before in the search reuse their
-    encoding (``keys`` -> row of ``encodings``/``gates``, lists grown here)."""
+    encoding's input gates (``keys`` -> row of ``gates``, a list grown here)."""
     first, rel, ditch, features, s0_bin, x_start = node_window(x, z, xdot, terr, win)
     key = first * KEY_STRIDE + s0_bin
     if key not in keys:
-        code = encode(rel, s0_bin, model)
-        keys[key] = len(encodings)
-        encodings.append(code)
-        gates.append(first_gates(code, model))
+        keys[key] = len(gates)
+        gates.append(first_gates(encode(rel, s0_bin, model), model))
     row = keys[key]
     subcells = int(win[SUBCELLS])
     n_bins = model[13].shape[0]
@@ -86,7 +84,7 @@ def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, encodings, gates
     # The draw's order is that of p scaled by any positive factor (``weighted_order``), so without a floor the
     # candidates' probabilities need not be normalized over every bin: the head runs for their bins alone.
     wanted = bins[(bins >= 0) & (bins < n_bins)] if win[FLOOR] == 0.0 else np.empty(0, np.int64)
-    logits = first_step_logits(features, gates[row], encodings[row], model, wanted)
+    logits = first_step_logits(features, gates[row], model, wanted)
     mask = np.zeros(n_bins, np.bool_)
     if win[MASK_DITCHES]:
         for j in range(n_bins):
@@ -123,8 +121,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     n_goals = ode_calls = expansions = n_expanded = 0  # expansions also count nodes that failed the check
     slots = np.zeros(N_SLOTS)
     window_keys = Dict.empty(types.int64, types.int64)
-    encodings, gates = [np.empty(0)], [np.empty(0)]  # typed by their first entry, which no key names
-    encodings.pop()
+    gates = [np.empty(0)]  # typed by its first entry, which no key names
     gates.pop()
     slot_of = Dict.empty(types.int64, types.int64)
     # per slot (an expanded node): its candidates' offset in the flat arrays, how many, how many drawn, used
@@ -147,7 +144,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
             if node not in slot_of:
                 x_l = grid_candidates(x, z, v, terr, p, sin_a, cos_a, s[SPACING], s[PAD], s[UNTIL])
                 t0 = now()
-                prob = node_probabilities(x, z, v, x_l, terr, win, model, window_keys, encodings, gates)
+                prob = node_probabilities(x, z, v, x_l, terr, win, model, window_keys, gates)
                 slots[MODEL] += now() - t0
                 order = weighted_order(np.maximum(prob, win[FLOOR]), rng)
                 slot = len(slot_of)

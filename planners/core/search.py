@@ -2,6 +2,7 @@
 Python) and what the planners call: ``grid_search`` for Step-space's grid."""
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -73,8 +74,10 @@ def terrain_arrays(terrain) -> tuple:
     return terrain.heights, float(terrain.x0), float(terrain.cell), float(terrain.ditch_height), lowest
 
 
+@functools.lru_cache(maxsize=64)
 def reach_angles(params) -> tuple:
-    """Sines and cosines of the reach angles of ``touchdown_range`` for the hopper ``params``."""
+    """Sines and cosines of the reach angles of ``touchdown_range`` for the hopper ``params`` (computed once per
+    hopper; read-only)."""
     angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
     return np.sin(angles), np.cos(angles)
 

@@ -113,6 +113,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.attempts = (branching, *fallback)
         self.temperature = float(temperature)
         self.seed = seed
+        self._rng = self._rng_seed = self._rng_start = None   # fresh_rng's generator, made on first use
         self.lazy = bool(lazy)
         if conditioning not in ("path", "apex"):
             raise ValueError(f"conditioning must be 'path' or 'apex', got {conditioning!r}")
@@ -150,10 +151,19 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             from planners.core.search import sampled_search  # compiled on first use: imports stay light
 
             settings = self.core_settings(problem, self.spacings(problem.units)[0], problem.window_end)
-            return sampled_search(problem, settings, window, self.core_model, np.random.default_rng(self.seed),
+            return sampled_search(problem, settings, window, self.core_model, self.fresh_rng(),
                                   1 if self.lazy else branching, robust, self.controller.for_params(problem.params),
                                   self.cost_weights, self.n_sequences, self.search_budget(robust), problem.timing)
         return self.numpy_search(problem, branching, robust)
+
+    def fresh_rng(self) -> np.random.Generator:
+        """A generator in the state ``np.random.default_rng(self.seed)`` starts in: this planner's one, reset (a
+        tenth of making one)."""
+        if self._rng is None or self._rng_seed != self.seed:
+            self._rng, self._rng_seed = np.random.default_rng(self.seed), self.seed
+            self._rng_start = self._rng.bit_generator.state
+        self._rng.bit_generator.state = self._rng_start
+        return self._rng
 
     def numpy_search(self, problem, branching, robust=None):
         """The search in Python (``best_first`` expanding with the sampler, ``aim`` and ``simulate``): the Drake
