@@ -111,8 +111,10 @@ class Robustness:
 
     def levels(self) -> list:
         """This robustness, then each of its ``relaxed`` variants: what a planner asks for in turn when a
-        stricter level finds no sequence."""
-        return [self] + [replace(self, **level, relaxed=()) for level in self.relaxed]
+        stricter level finds no sequence (made once; a planner asks at every call)."""
+        if "_levels" not in self.__dict__:
+            object.__setattr__(self, "_levels", (self, *(replace(self, **level, relaxed=()) for level in self.relaxed)))
+        return list(self.__dict__["_levels"])
 
     def particles(self, apex, terrain: Terrain, params: SlipParams) -> "Particles":
         """The perturbed robots at the start ``apex`` over ``terrain`` (the map the planner sees), the nominal
@@ -138,10 +140,14 @@ class Robustness:
         variants = list(dict.fromkeys((ks, ms, g) for *_, ks, ms, g in rows))
         loss = FRICTION_LOSS * friction_factor(params) if self.friction_loss is None else self.friction_loss
         friction = max(params.friction - loss, 1e-3)
-        worlds = Worlds.of([(Terrain(np.where(terrain.heights > terrain.ditch_height, terrain.heights + rise,
-                                              terrain.heights), terrain.cell, terrain.x0 + shift, terrain.ditch_height),
-                             replace(params, stiffness=params.stiffness * ks, mass=params.mass * ms, friction=friction))
-                            for ks, ms, (rise, shift) in variants])
+        # each world's hopper and terrain as arrays (what Worlds.of makes of a SlipParams and a Terrain per variant,
+        # without building and checking them: this runs at every search a robust level starts)
+        solid = terrain.heights > terrain.ditch_height
+        worlds = Worlds(np.array([[params.mass * ms, params.leg_length, params.stiffness * ks, params.gravity, friction,
+                                   params.min_leg_length] for ks, ms, _ in variants], dtype=np.float64),
+                        np.stack([np.where(solid, terrain.heights + rise, terrain.heights) for *_, (rise, _) in variants]),
+                        np.array([terrain.x0 + shift for *_, (_, shift) in variants], dtype=np.float64),
+                        float(terrain.cell), float(terrain.ditch_height))
         errors = np.array([e for e, *_ in rows])
         units = units_of(params)
         return Particles(np.asarray(apex, dtype=np.float64) - errors, errors, np.array([d for _, d, *_ in rows]),
