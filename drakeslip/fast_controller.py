@@ -24,7 +24,8 @@ _LOOP = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_void_p, ctypes.c_void_p
 
 
 class _UFuncHead(ctypes.Structure):
-    """The leading fields of numpy's ``PyUFuncObject`` (numpy/ufuncobject.h, the same since numpy 1.0)."""
+    """The leading fields of numpy's ``PyUFuncObject`` (numpy/ufuncobject.h, numpy's public C API; ``numpy_loop``
+    checks what it reads)."""
 
     _fields_ = [("ob_refcnt", ctypes.c_ssize_t), ("ob_type", ctypes.c_void_p), ("nin", ctypes.c_int),
                 ("nout", ctypes.c_int), ("nargs", ctypes.c_int), ("identity", ctypes.c_int),
