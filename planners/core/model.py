@@ -134,13 +134,11 @@ def _conv_relu(x, w, b):
     padded[:, half:half + n] = x
     y = np.zeros((n_out, n))
     for o in range(n_out):
-        row = y[o]
         for i in range(n_in):
             for t in range(taps):
                 wt = w[o, i, t]
-                shifted = padded[i, t:t + n]
                 for c in range(n):
-                    row[c] += wt * shifted[c]
+                    y[o, c] += wt * padded[i, t + c]
         for c in range(n):
             y[o, c] = max(y[o, c] + b[o], 0.0)
     return y
@@ -158,15 +156,14 @@ def _first_conv_relu(window, prev_bin, w, b, subcells):
     channel, cell = 1 + prev_bin % subcells, prev_bin // subcells
     y = np.zeros((n_out, n))
     for o in range(n_out):
-        row = y[o]
         for t in range(taps):
             wt = w[o, 0, t]
             for c in range(n):
-                row[c] += wt * padded[t + c]
+                y[o, c] += wt * padded[t + c]
         for c in range(max(cell - half, 0), min(cell + half + 1, n)):
-            row[c] += w[o, channel, cell - c + half]
+            y[o, c] += w[o, channel, cell - c + half]
         for c in range(n):
-            row[c] = max(row[c] + b[o], 0.0)
+            y[o, c] = max(y[o, c] + b[o], 0.0)
     return y
 
 
