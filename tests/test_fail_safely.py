@@ -42,9 +42,10 @@ def alive(pid: int) -> bool:
 
 
 def evaluation_command(out: Path, jobs: int) -> list[str]:
-    """A small evaluation (16 tasks, about a second each on the fast backend) writing ``out``."""
+    """A small evaluation (16 tasks, executed on Drake: up to a few seconds each, so a job is still running when
+    a test stops it) writing ``out``."""
     return [str(ROOT / "examples" / "evaluate.py"), "--suite", str(ROOT / "suites" / "step.json"), "--planners",
-            "heuristic,step", "--cases", "8", "--backend", "fast", "--jobs", str(jobs), "--quiet", "--out", str(out)]
+            "heuristic,step", "--cases", "8", "--backend", "drake", "--jobs", str(jobs), "--quiet", "--out", str(out)]
 
 
 def wait_for_saved_results(cache: Path, job: subprocess.Popen, count: int = 1, timeout: float = 180.0) -> None:
