@@ -11,7 +11,7 @@ import planners
 from drakeslip.controller import StepLengthController
 from drakeslip.units import units_of
 from planners.formats.suite import make_suite
-from planners.search.robust import Robustness, Worlds, ways_on
+from planners.search.robust import Robustness, ways_on
 from planners.search.tree import clear_of_edges
 
 
@@ -82,8 +82,6 @@ def test_the_compiled_check_is_every_hop_flown_on_its_own(controller):
     assert passed
     assert not rob.fly(particles.moved(ends), 10.1875, controller, terrain, last=True)[0]
     assert not reference_flight(rob, particles.moved(ends), 10.1875, controller, terrain, last=True)[0]
-    with pytest.raises(ValueError, match="share"):
-        Worlds.of([(case.terrain, params), (ds.Terrain(case.terrain.heights[:-1], 0.1, 0.0), params)])
 
 
 def test_every_hop_the_robust_level_covers_survives_its_particles(controller):

@@ -140,8 +140,8 @@ class Robustness:
         variants = list(dict.fromkeys((ks, ms, g) for *_, ks, ms, g in rows))
         loss = FRICTION_LOSS * friction_factor(params) if self.friction_loss is None else self.friction_loss
         friction = max(params.friction - loss, 1e-3)
-        # each world's hopper and terrain as arrays (what Worlds.of makes of a SlipParams and a Terrain per variant,
-        # without building and checking them: this runs at every search a robust level starts)
+        # each world's hopper (SlipParams.as_array's fields) and terrain as arrays, without making and checking a
+        # SlipParams and a Terrain per world: this runs at every search a robust level starts
         solid = terrain.heights > terrain.ditch_height
         worlds = Worlds(np.array([[params.mass * ms, params.leg_length, params.stiffness * ks, params.gravity, friction,
                                    params.min_leg_length] for ks, ms, _ in variants], dtype=np.float64),
@@ -184,17 +184,6 @@ class Worlds:
     x0: np.ndarray        # (W,)
     cell: float
     ditch_height: float
-
-    @classmethod
-    def of(cls, variants: list) -> "Worlds":
-        """From (Terrain, SlipParams) pairs whose terrains share cell size, ditch height and cell count."""
-        terrains = [t for t, _ in variants]
-        first = terrains[0]
-        if any(t.cell != first.cell or t.ditch_height != first.ditch_height or t.heights.size != first.heights.size
-               for t in terrains):
-            raise ValueError("worlds must share the terrain's cell size, ditch height and number of cells")
-        return cls(np.stack([p.as_array() for _, p in variants]), np.stack([t.heights for t in terrains]),
-                   np.array([t.x0 for t in terrains], dtype=np.float64), first.cell, first.ditch_height)
 
 
 @dataclass
