@@ -37,7 +37,7 @@ import numpy as np
 from numba import njit
 
 from drakeslip import SlipParams, Terrain
-from drakeslip.dynamics import height_at
+from drakeslip.dynamics import FRICTION, MASS, STIFFNESS, height_at
 from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
                                  step_one)
 from drakeslip.noise import PROFILES, NoiseProfile, friction_factor
@@ -140,12 +140,16 @@ class Robustness:
         variants = list(dict.fromkeys((ks, ms, g) for *_, ks, ms, g in rows))
         loss = FRICTION_LOSS * friction_factor(params) if self.friction_loss is None else self.friction_loss
         friction = max(params.friction - loss, 1e-3)
-        # each world's hopper (SlipParams.as_array's fields) and terrain as arrays, without making and checking a
-        # SlipParams and a Terrain per world: this runs at every search a robust level starts
+        # each world's hopper and terrain as arrays, without making and checking a SlipParams and a Terrain per
+        # world: this runs at every search a robust level starts
+        hoppers = np.tile(params.as_array(), (len(variants), 1))
+        for j, (ks, ms, _) in enumerate(variants):
+            hoppers[j, STIFFNESS], hoppers[j, MASS] = params.stiffness * ks, params.mass * ms
+            hoppers[j, FRICTION] = friction
         solid = terrain.heights > terrain.ditch_height
-        worlds = Worlds(np.array([[params.mass * ms, params.leg_length, params.stiffness * ks, params.gravity, friction,
-                                   params.min_leg_length] for ks, ms, _ in variants], dtype=np.float64),
-                        np.stack([np.where(solid, terrain.heights + rise, terrain.heights) for *_, (rise, _) in variants]),
+        worlds = Worlds(hoppers,
+                        np.stack([np.where(solid, terrain.heights + rise, terrain.heights)
+                                  for *_, (rise, _) in variants]),
                         np.array([terrain.x0 + shift for *_, (_, shift) in variants], dtype=np.float64),
                         float(terrain.cell), float(terrain.ditch_height))
         errors = np.array([e for e, *_ in rows])
