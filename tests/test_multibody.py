@@ -75,6 +75,43 @@ def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
     assert xs == sorted(xs)
 
 
+def _foot_path(speed: float):
+    """The foot ball's centre (x, bottom z) and the absolute leg angle at every step of one hop from an apex at
+    ``speed`` onto a foothold on flat ground, with the controller's phase."""
+    from drakeslip.multibody.diagram import build_diagram
+    from drakeslip.multibody.execute import execute
+
+    terrain = ds.Terrain.flat()
+    log = execute((0.0, 0.75, speed), terrain, [0.25 + 0.17 * speed], trajectory=True)
+    assert log.failure is None, log.failure
+    robot = RobotParams()
+    x, z, pitch, hip, leg = np.array(log.positions)[:, list(build_diagram(terrain, robot).layout.q)].T
+    angle = pitch + hip
+    return (np.array(log.times), x, x + leg * np.sin(angle), z - leg * np.cos(angle) - robot.foot_radius, angle)
+
+
+def test_the_leg_swings_back_as_it_lands_so_the_foot_meets_the_ground_slower_than_the_body():
+    """Ground-speed matching: a foot landing at the body's speed slides before the leg's force holds it."""
+    t, x, foot_x, foot_z, angle = _foot_path(2.5)
+    first = int(np.argmax(foot_z < 1e-3))   # the first touchdown
+    dt = t[first] - t[first - 5]
+    foot_speed = (foot_x[first] - foot_x[first - 5]) / dt
+    body_speed = (x[first] - x[first - 5]) / dt
+    assert angle[first] < angle[first - 5]   # the leg is swinging back
+    assert 0.0 < foot_speed < 0.7 * body_speed
+
+
+def test_after_liftoff_the_foot_rises_where_it_stood():
+    """Until it clears the ground the foot is not dragged forward by the hip (it would catch a step's face)."""
+    t, x, foot_x, foot_z, angle = _foot_path(2.5)
+    first = int(np.argmax(foot_z < 1e-3))
+    liftoff = first + int(np.argmax(foot_z[first:] > 1e-3))
+    clear = liftoff + int(np.argmax(foot_z[liftoff:] > 0.03))
+    body, foot = x[clear] - x[liftoff], foot_x[clear] - foot_x[liftoff]
+    assert clear > liftoff and body > 0.02
+    assert abs(foot) < 0.6 * body   # a leg left to swing on by itself lets the hip drag the foot about 2/3 as far
+
+
 def test_under_model_mismatch_the_controller_keeps_the_models_values(monkeypatch):
     """The plant is the drawn robot, the controller is built for the model (as the SLIP's controller is)."""
     import planners.drake_system as drake_system

@@ -7,15 +7,18 @@ plan's apexes have). Contact is inferred from the leg's compression, never from 
 ``actuation`` is (hip torque, leg force), inside the motor's torque-speed envelope and the leg actuator's force
 limit, applied one control period after the measurement it comes from.
 
-Phases (the discrete state's ``PHASE``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` to clear
-the ground and swings to the neutral angle (half the stance's travel ahead, Raibert's), where it waits for the
-footholds the planner chooses at the apex; DESCENT, from apex (vertical velocity reaching zero) to
-touchdown (the leg compressing): the leg extends to its stop and the hip keeps it at the angle that lands the foot
-on the commanded foothold, recomputed each period from the body's ballistic path; STANCE, to liftoff (the leg back
-at its stop): the hip torque keeps the body level (within the friction cone's share of the leg force) and the leg
-actuator pushes during extension until the body has the energy the next planned apex needs plus what the
-unsprung foot's liftoff will take. The energy each hop still falls short of at its apex (damping, the model's
-errors) is learned as a bias added to the next targets.
+Phases (the discrete state's ``PHASE``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` and, until
+the foot is ``CLEARANCE`` above the ground, swings back under the hip's advance so that the foot rises where it
+stood (dragged forward, a foot near a step's face catches it and kicks the leg and body round); then it swings to
+the neutral angle (half the stance's travel ahead, Raibert's), where it waits for the footholds the planner chooses
+at the apex; DESCENT, from apex (vertical velocity reaching zero) to touchdown (the leg compressing): the leg
+extends to its stop and the hip aims it at the angle that lands the foot on the commanded foothold, recomputed each
+period from the body's ballistic path, and swings it back as it lands (``LANDING_SWING_SHARE``) so that the foot,
+which has mass, meets the ground slower than the body moves instead of sliding before the leg's force holds it
+(ground-speed matching); STANCE, to liftoff (the leg back at its stop): the hip torque keeps the body level
+(within the friction cone's share of the leg force) and the leg actuator pushes during extension until the body
+has the energy the next planned apex needs plus what the unsprung foot's liftoff will take. The energy each hop
+still falls short of at its apex (damping, the model's errors) is learned as a bias added to the next targets.
 
 Parameters: ``RobotParams`` (the robot the controller knows), ``inject_energy`` (False: the leg actuator only
 retracts and extends the leg in flight, so nothing returns the energy each hop loses).
@@ -90,6 +93,14 @@ def apex_energy(z: float, xdot: float, gravity: float) -> float:
     return gravity * z + 0.5 * xdot * xdot
 
 
+def time_to_ground(z, zdot, angle, ground, reach, foot_radius, gravity) -> float:
+    """Seconds until the foot ball (``reach`` from the hip) held at ``angle`` reaches ``ground`` on the body's
+    ballistic path from height ``z`` rising at ``zdot``."""
+    drop = z - reach * math.cos(angle) - foot_radius - ground
+    disc = zdot * zdot + 2.0 * gravity * drop
+    return (zdot + math.sqrt(disc)) / gravity if disc > 0 else max(zdot / gravity, 0.0)
+
+
 def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, reach, foot_radius, gravity) -> float:
     """The absolute leg angle (SLIP convention) that, held from the body state (x, z, xdot, zdot) on its
     ballistic path, lands the foot ball's centre (``reach`` from the hip) above ``foothold_x`` when its bottom
@@ -119,6 +130,12 @@ def motor_torque(torque: float, speed: float, params: RobotParams) -> float:
 LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (hopper.sdf)
 LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (hopper.sdf)
 STANCE_TIME = 0.15        # [s] about half the body-on-spring period, pi sqrt(m / k) for the paper's hopper
+# Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
+# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.6 of the body's
+# speed (tests/test_multibody.py)
+LANDING_SWING_SHARE = 0.5
+LANDING_SWING_TIME = 0.06   # [s]
+LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while the foot rises where it stood
 SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
 
 
@@ -249,6 +266,7 @@ class HopperController(LeafSystem):
                 force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
         else:
             step = int(s[STEP])
+            rate = 0.0   # the leg's absolute rate the hip's damping acts about
             if phase == ASCENT and step < len(command.footholds):
                 # the planner chooses the next foothold at the apex, from the apex reached: a leg swung before
                 # then toward the last plan's next foothold swings back when the new plan moves it, and each
@@ -262,12 +280,21 @@ class HopperController(LeafSystem):
                                          slip.leg_length - p.foot_radius, p.foot_radius, g)
                 if step < len(command.angle_errors):
                     target += command.angle_errors[step]
+                # the hip leads the leg by the swing back still to come and damps it about the swing's rate, so
+                # that the leg is already swinging back when the foot lands on the foothold
+                reach = slip.leg_length - p.foot_radius
+                rate = -LANDING_SWING_SHARE * (xd + exd) / (reach * math.cos(target))
+                target -= rate * min(time_to_ground(z + ez, zd, target, ground, reach, p.foot_radius, g),
+                                     LANDING_SWING_TIME)
             else:
                 target = self.raibert_angle(xd, command.speed)
             kp, kd = FLIGHT_GAINS
             if phase == ASCENT and self._clearance(x, z, leg, angle, target, command.terrain) < CLEARANCE:
-                kp = kd = 0.0   # the foot is leaving the ground: the leg retracts, free to swing on backward
-            torque = kp * (target - angle) - kd * angle_rate
+                # the foot is leaving the ground: the leg retracts and swings back at the rate that keeps the foot
+                # over the ground it left
+                kp, kd = 0.0, LIFT_DAMPING
+                rate = -(xd + legd * math.sin(angle)) / (leg * math.cos(angle))
+            torque = kp * (target - angle) + kd * (rate - angle_rate)
             goal = rest - RETRACT if phase == ASCENT else rest + 0.01
             kp, kd = LEG_GAINS
             force = kp * (goal - leg) - kd * legd - slip.stiffness * (rest - leg)
