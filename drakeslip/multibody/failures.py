@@ -42,13 +42,15 @@ class RobotFailure:
 
 @dataclass
 class HopLog:
-    """Touchdowns (foot x and absolute leg angle), apexes, the largest |pitch|, the failure (None if none), and
-    with ``trajectory`` the times and plant positions of every step."""
+    """Touchdowns (foot x and absolute leg angle), apexes, the largest |pitch| (overall, and over each hop up to
+    its apex in ``hop_pitch``), the failure (None if none), and with ``trajectory`` the times and plant positions of
+    every step."""
 
     footholds: list = field(default_factory=list)
     leg_angles: list = field(default_factory=list)
     apexes: list = field(default_factory=list)
     max_pitch: float = 0.0
+    hop_pitch: list = field(default_factory=list)
     failure: RobotFailure | None = None
     times: list = field(default_factory=list)
     positions: list = field(default_factory=list)
@@ -67,6 +69,7 @@ class HopMonitor:
         self.height = Heights(terrain)
         self.phase = None
         self.phase_start = 0.0
+        self.hop_pitch = 0.0
         self.apexes = 0
         p = hd.params
         self.radius, self.bottom = p.foot_radius, p.bottom_extension
@@ -83,6 +86,7 @@ class HopMonitor:
             log.times.append(t)
             log.positions.append(full[:self.hd.plant.num_positions()].copy())
         log.max_pitch = max(log.max_pitch, abs(pitch))
+        self.hop_pitch = max(self.hop_pitch, abs(pitch))
         phase = c[PHASE]
         if phase != self.phase:
             if phase == STANCE:
@@ -90,6 +94,8 @@ class HopMonitor:
                 log.leg_angles.append(float(c[TD_ANGLE]))
             elif phase == DESCENT and self.phase == ASCENT:
                 log.apexes.append(ApexState(float(x), float(z), float(xd)))
+                log.hop_pitch.append(self.hop_pitch)
+                self.hop_pitch = 0.0
             self.phase, self.phase_start = phase, t
         failure = self._failure(t, x, z, xd, zd, pitch, hip, leg, phase, c)
         if failure is not None:
