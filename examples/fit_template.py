@@ -5,9 +5,10 @@
 Runs --cases cases of each suite (every --every-th) in the robot's closed loop with step@robust, records every
 hop (apex, foothold -> next apex), fits the template's leg length and stiffness to the robot's apex-to-apex map
 (drakeslip/multibody/fit.py), prints the per-hop prediction errors (median and 90th percentile in x, z, xdot) of
-the paper's template and of the fitted one, on the hops fitted and on held-out hops (the next cases), and writes
-the fitted template (drakeslip-hopper/1; the multibody backend's planners plan for the one at the default
---out). Exit status: 0 written, 1 no hops recorded, 2 bad input.
+the paper's template, of the fitted one and of the one the planners use now ("current", when there is one), on
+the hops fitted and on held-out hops (the next cases), and writes the fitted template (drakeslip-hopper/1; the
+multibody backend's planners plan for the one at the default --out). Exit status: 0 written, 1 no hops
+recorded, 2 bad input.
 """
 from __future__ import annotations
 
@@ -45,7 +46,7 @@ def main(argv=None) -> int:
     from dataclasses import replace
 
     from drakeslip.hopper_file import Hopper, save_hopper
-    from drakeslip.multibody.fit import FIT_NAME, errors, fit, summary
+    from drakeslip.multibody.fit import FIT_NAME, errors, fit, fitted_template, summary
     from drakeslip.params import SlipParams
     from planners.formats.suite import load_suite
 
@@ -65,9 +66,12 @@ def main(argv=None) -> int:
         return FAILED
     paper = SlipParams()
     fitted = fit(train, paper)
-    report = {"paper": {"fit": summary(errors(train, paper)), "held_out": summary(errors(test, paper))},
-              "fitted": {"fit": summary(errors(train, fitted)), "held_out": summary(errors(test, fitted))},
-              "params": {"leg_length": fitted.leg_length, "stiffness": fitted.stiffness}}
+    templates = {"paper": paper, "fitted": fitted}
+    current = fitted_template()
+    if current is not None:   # the template the multibody backend's planners plan for now
+        templates["current"] = current
+    report = {name: {"fit": summary(errors(train, t)), "held_out": summary(errors(test, t)),
+                     "leg_length": t.leg_length, "stiffness": t.stiffness} for name, t in templates.items()}
     print(json.dumps(report, indent=1))
     save_hopper(Hopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)
     print(f"wrote {args.out}")
