@@ -102,6 +102,26 @@ class Terrain:
         use = solid & (count >= 3) & (np.abs(median - h) <= 3.0 * sigma)
         return Terrain(np.where(use, median, h), self.cell, self.x0, self.ditch_height, self.extends_flat)
 
+    def without_footholds_before_rises(self, width: float) -> "Terrain":
+        """This map with every solid cell from which the ground rises by more than LEVEL_TOLERANCE within
+        ``width`` [m] ahead (the next ``ceil(width / cell)`` cells) made a ditch cell, so that a planner on it
+        places no foothold just before a step's face. ``width`` 0 returns this map."""
+        width = check_number(width, "keep-out width")
+        ahead = math.ceil(round(width / self.cell, 9))
+        if ahead <= 0:
+            return self
+        h = self.heights
+        solid = h > self.ditch_height
+        # past a map's end the ground extends flat; past a window's end nothing is known, so nothing rises there
+        padded = np.pad(np.where(solid, h, -np.inf), (0, ahead), mode="edge" if self.extends_flat else "constant",
+                        constant_values=-np.inf)
+        highest_ahead = np.max(np.lib.stride_tricks.sliding_window_view(padded[1:], ahead), axis=1)
+        keep_out = solid & (highest_ahead - h > LEVEL_TOLERANCE)
+        if not keep_out.any():
+            return self
+        return Terrain(np.where(keep_out, self.ditch_height, h), self.cell, self.x0, self.ditch_height,
+                       self.extends_flat)
+
     def is_ditch_at(self, x) -> bool:
         return bool(self.height_at(x) <= self.ditch_height)
 

@@ -47,7 +47,7 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
     plant, scene_graph, _, layout = add_robot_and_terrain(builder, terrain, robot)
     controller = builder.AddSystem(HopperController(robot, layout))
     planner_system = builder.AddSystem(FootstepPlannerSystem(planner, terrain, goal_x, SlipParams(), layout,
-                                                             robot.time_step))
+                                                             robot.time_step, face_keep_out=robot.face_keep_out))
     builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))
     builder.Connect(plant.get_state_output_port(), controller.GetInputPort("state"))
     builder.Connect(planner_system.GetOutputPort("command"), controller.GetInputPort("command"))

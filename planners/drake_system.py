@@ -3,9 +3,9 @@
 ``FootstepPlannerSystem`` wraps any registered planner label (or planner object): at each flight apex of the
 robot (the body's vertical velocity turning from up to down) it takes the state estimate (the true state plus the
 noise profile's apex errors when asked), perceives the terrain window ahead of the body (with the profile's
-height-map errors and the robot's map filter when asked), plans to the goal for the template ``params``, and
-outputs the plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.HopperController``.
-Its ports: ``state`` in (the plant's state vector), ``command`` out. A user wires it into their own diagram as
+height-map errors and the robot's map filter when asked), plans to the goal for the template ``params`` with no
+foothold just before a step's face (``RobotParams.face_keep_out`` in ``build_closed_loop``), and outputs the
+plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.HopperController``. Its ports: ``state`` in (the plant's state vector), ``command`` out. A user wires it into their own diagram as
 ``examples/hop_multibody.py`` shows; ``build_closed_loop`` and ``run_closed_loop`` do it for one case.
 """
 from __future__ import annotations
@@ -39,12 +39,14 @@ class FootstepPlannerSystem(LeafSystem):
     Parameters: ``planner`` (a label for ``planners.make`` or an object with ``plan``), ``terrain`` (the world
     it perceives), ``goal_x``, ``params`` (the template it plans for), ``layout`` (the robot in the plant),
     ``time_step`` (how often it checks for an apex), ``noise`` and ``seed`` (state and perception errors drawn
-    at each apex), ``map_filter`` (the robot's median filter on its sensed map). Abstract state: the command and
+    at each apex), ``map_filter`` (the robot's median filter on its sensed map), ``face_keep_out`` (how far
+    before a step's face [m] it places no foothold: the planner plans on the sensed map less those footholds,
+    ``Terrain.without_footholds_before_rises``; the command keeps the sensed map). Abstract state: the command and
     the number of plans made; ``records`` lists one summary per planning call of the latest run."""
 
     def __init__(self, planner, terrain: Terrain, goal_x: float, params: SlipParams, layout: StateLayout,
                  time_step: float = 1e-3, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
-                 replan_every: int = 1):
+                 replan_every: int = 1, face_keep_out: float = 0.0):
         super().__init__()
         if isinstance(planner, str):
             import planners
@@ -52,6 +54,7 @@ class FootstepPlannerSystem(LeafSystem):
             planner = planners.make(planner)
         self.planner, self.terrain, self.goal_x, self.params = planner, terrain, float(goal_x), params
         self.noise, self.map_filter, self.replan_every = noise or NoiseProfile(), map_filter, int(replan_every)
+        self.face_keep_out = float(face_keep_out)
         self.rng = np.random.default_rng(seed)
         self._z, self._vz = layout.q[0:2], layout.v[0:2]
         self._q, self._v = list(layout.q), list(layout.v)
@@ -92,7 +95,8 @@ class FootstepPlannerSystem(LeafSystem):
         sensed = window if noise.silent else noise.perceived(window, self.rng, self.map_filter)
         aim_x = self.goal_x + GOAL_SIGMAS * noise.apex[0]
         try:
-            plan = self.planner.plan(seen, sensed, aim_x, self.params)
+            plan = self.planner.plan(seen, sensed.without_footholds_before_rises(self.face_keep_out), aim_x,
+                                     self.params)
             record = plan.summary()
         except ValueError as refusal:   # a noisy apex below the ground it sees
             record = {"success": False, "message": str(refusal), "ode_calls": 0, "t_plan_s": 0.0,
@@ -118,7 +122,7 @@ def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipPara
 
     def make_planner(layout: StateLayout) -> FootstepPlannerSystem:
         system = FootstepPlannerSystem(planner, terrain, goal_x, params, layout, robot.time_step, noise, seed,
-                                       map_filter, replan_every)
+                                       map_filter, replan_every, robot.face_keep_out)
         system.set_name("footstep_planner")
         return system
 

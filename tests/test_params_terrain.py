@@ -158,6 +158,18 @@ def test_height_lookup_and_flat_extension():
     np.testing.assert_array_equal(terrain.height_at(np.array([1.2, 1.7, 2.2])), [0.0, 0.2, -1.0])
 
 
+def test_a_map_without_footholds_before_rises_has_ditches_just_before_each_rise():
+    terrain = ds.Terrain([0.0, 0.0, 0.0, 0.1, 0.1, -1.0, 0.1, 0.3, 0.2, 0.2], cell=0.1, x0=0.0, extends_flat=False)
+    np.testing.assert_array_equal(terrain.without_footholds_before_rises(0.08).heights,
+                                  [0.0, 0.0, -1.0, 0.1, 0.1, -1.0, -1.0, 0.3, 0.2, 0.2])   # a drop stays solid
+    np.testing.assert_array_equal(terrain.without_footholds_before_rises(0.15).heights,
+                                  [0.0, -1.0, -1.0, 0.1, 0.1, -1.0, -1.0, 0.3, 0.2, 0.2])
+    assert terrain.without_footholds_before_rises(0.0) is terrain
+    assert not terrain.without_footholds_before_rises(0.08).extends_flat
+    with pytest.raises(ValueError, match="keep-out width"):
+        terrain.without_footholds_before_rises(float("nan"))
+
+
 @pytest.mark.parametrize("family", ["ditch", "step", "mixed"])
 def test_generators_are_deterministic_and_flat_at_the_start(family):
     make = ds.TERRAIN_FAMILIES[family]

@@ -23,6 +23,8 @@ from drakeslip.params import SlipParams, check_number
 
 SDF_FILE = "hopper.sdf"
 
+FOOT_TRAVEL = 0.05   # [m] how far the foot ball rolls in stance and is dragged at liftoff, at most, on the suites' hops
+
 
 @dataclass(frozen=True)
 class RobotParams:
@@ -78,6 +80,13 @@ class RobotParams:
     def bottom_extension(self) -> float:
         """The leg joint's position at bottom-out."""
         return self.slip.min_leg_length - self.foot_radius
+
+    @property
+    def face_keep_out(self) -> float:
+        """How far before a step's face [m] the robot's planner places no foothold: the foot ball's radius plus
+        FOOT_TRAVEL, the ball's rolling in stance and its drag at liftoff. Nearer, the ball catches the face as
+        it leaves the ground and the body's angular momentum jumps."""
+        return self.foot_radius + FOOT_TRAVEL
 
     @property
     def total_mass(self) -> float:
