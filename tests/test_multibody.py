@@ -135,6 +135,19 @@ def test_after_liftoff_the_foot_rises_where_it_stood():
     assert abs(foot) < 0.6 * body   # a leg left to swing on by itself lets the hip drag the foot about 2/3 as far
 
 
+def test_a_speed_error_in_the_apex_estimate_carries_into_where_the_foot_lands():
+    """As the SLIP's controller and the robust planner's particles do: a robot told it is faster than it is aims
+    from an estimate that runs ahead of it through the descent, and lands short by the error times the fall."""
+    from drakeslip.multibody.execute import execute
+
+    terrain = ds.Terrain.flat()
+    touched = {e: execute((0.0, 0.75, 2.0), terrain, [0.6], apex_errors=[(0.0, 0.0, e)]).footholds[0]
+               for e in (-0.1, 0.0, 0.1)}
+    fall = np.sqrt(2 * (0.75 - 0.47 * np.cos(0.25) - 0.03) / 9.81)   # apex to touchdown, about 0.23 s
+    for e in (-0.1, 0.1):
+        assert touched[e] - touched[0.0] == pytest.approx(-e * fall, rel=0.25)
+
+
 def test_under_model_mismatch_the_controller_keeps_the_models_values(monkeypatch):
     """The plant is the drawn robot, the controller is built for the model (as the SLIP's controller is)."""
     import planners.drake_system as drake_system

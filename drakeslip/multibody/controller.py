@@ -61,8 +61,10 @@ class FootholdCommand:
     planned apexes' g z + xdot^2 / 2 (None: keep the energy of the last apex); ``stamp`` tells one command from
     the next (the controller counts touchdowns from a new stamp on). Past its last foothold (or with none) the
     controller places the foot by Raibert's rule for the forward ``speed`` [m/s] (0: hopping in place).
-    ``apex_errors`` ((x, z, xdot) per step) perturb the body state the controller aims from (state estimation)
-    and ``angle_errors`` (rad per step) the leg angle it reaches (actuation), as the SLIP's rollouts do."""
+    ``apex_errors`` ((x, z, xdot) per step) perturb the body state the controller aims from (state estimation:
+    the estimate at the apex is that far off, and its speed error carries into its position through the
+    descent) and ``angle_errors`` (rad per step) the leg angle it reaches (actuation), as the SLIP's rollouts
+    do."""
 
     footholds: tuple
     terrain: Terrain
@@ -276,6 +278,9 @@ class HopperController(LeafSystem):
                 foothold = command.footholds[step]
                 ground = self._heights(command.terrain)(foothold)
                 ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
+                if phase == DESCENT:
+                    # the estimate's speed error at the apex carries into its position as the body flies on
+                    ex += exd * (t - s[PHASE_START])
                 target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
                                          slip.leg_length - p.foot_radius, p.foot_radius, g)
                 if step < len(command.angle_errors):
