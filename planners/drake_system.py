@@ -5,7 +5,8 @@ robot (the body's vertical velocity turning from up to down) it takes the state 
 noise profile's apex errors when asked), perceives the terrain window ahead of the body (with the profile's
 height-map errors and the robot's map filter when asked), plans to the goal for the template ``params`` with no
 foothold just before a step's face (``RobotParams.face_keep_out`` in ``build_closed_loop``), and outputs the
-plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.HopperController``. Its ports: ``state`` in (the plant's state vector), ``command`` out. A user wires it into their own diagram as
+plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.HopperController``. Its ports:
+``state`` in (the plant's state vector), ``command`` out. A user wires it into their own diagram as
 ``examples/hop_multibody.py`` shows; ``build_closed_loop`` and ``run_closed_loop`` do it for one case.
 """
 from __future__ import annotations
@@ -26,6 +27,7 @@ from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HOP_SECONDS, HopMonitor
 from drakeslip.multibody.robot import RobotParams, StateLayout
 from drakeslip.noise import NoiseProfile
+from drakeslip.params import check_number
 from drakeslip.terrain import Terrain
 from drakeslip.units import units_of
 
@@ -54,7 +56,7 @@ class FootstepPlannerSystem(LeafSystem):
             planner = planners.make(planner)
         self.planner, self.terrain, self.goal_x, self.params = planner, terrain, float(goal_x), params
         self.noise, self.map_filter, self.replan_every = noise or NoiseProfile(), map_filter, int(replan_every)
-        self.face_keep_out = float(face_keep_out)
+        self.face_keep_out = check_number(face_keep_out, "FootstepPlannerSystem face_keep_out")
         self.rng = np.random.default_rng(seed)
         self._z, self._vz = layout.q[0:2], layout.v[0:2]
         self._q, self._v = list(layout.q), list(layout.v)

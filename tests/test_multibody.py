@@ -96,6 +96,11 @@ def test_the_robots_planner_places_no_foothold_just_before_a_steps_face():
         pytest.approx(robot.foot_radius + 0.05)
     assert footholds_before_faces(None) == []
     assert footholds_before_faces(0.0)   # planning on the sensed map as it is lands the foot next to a face here
+    from planners.drake_system import FootstepPlannerSystem
+
+    layout = build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot).layout
+    with pytest.raises(ValueError, match="face_keep_out"):
+        FootstepPlannerSystem("step@robust", terrain, 6.0, ds.SlipParams(), layout, face_keep_out=float("nan"))
 
 
 def _foot_path(speed: float):
