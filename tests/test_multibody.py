@@ -77,30 +77,25 @@ def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
 
 def test_the_robots_planner_places_no_foothold_just_before_a_steps_face():
     """The foot ball rolls and is dragged at liftoff: a foothold just before a rise lets it catch the face."""
-    from planners.drake_system import build_closed_loop
+    from planners.drake_system import FootstepPlannerSystem, build_closed_loop
 
     terrain, robot = ds.step_world(3), RobotParams()
     h = terrain.heights
     rise = np.flatnonzero((h[1:] - h[:-1] > 0.02) & (h[:-1] > terrain.ditch_height)) + 1
     faces = terrain.x0 + terrain.cell * rise
+    hd = build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot)
+    assert hd.planner.face_keep_out == pytest.approx(robot.foot_radius + 0.05)
 
-    def footholds_before_faces(keep_out: float | None) -> list:
-        system = build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot).planner
-        if keep_out is not None:
-            system.face_keep_out = keep_out
-        footholds = system.plan(ds.ApexState(0.0, 0.65, 1.5), 0).footholds
+    def footholds_before_faces(keep_out: float) -> list:
+        hd.planner.face_keep_out = keep_out
+        footholds = hd.planner.plan(ds.ApexState(0.0, 0.65, 1.5), 0).footholds
         assert len(footholds) >= 10
         return [f for f in footholds if np.any((faces > f) & (faces - f < robot.face_keep_out))]
 
-    assert build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot).planner.face_keep_out == \
-        pytest.approx(robot.foot_radius + 0.05)
-    assert footholds_before_faces(None) == []
+    assert footholds_before_faces(robot.face_keep_out) == []
     assert footholds_before_faces(0.0)   # planning on the sensed map as it is lands the foot next to a face here
-    from planners.drake_system import FootstepPlannerSystem
-
-    layout = build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot).layout
     with pytest.raises(ValueError, match="face_keep_out"):
-        FootstepPlannerSystem("step@robust", terrain, 6.0, ds.SlipParams(), layout, face_keep_out=float("nan"))
+        FootstepPlannerSystem("step@robust", terrain, 6.0, ds.SlipParams(), hd.layout, face_keep_out=float("nan"))
 
 
 def _foot_path(speed: float):

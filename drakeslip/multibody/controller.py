@@ -278,9 +278,9 @@ class HopperController(LeafSystem):
                 foothold = command.footholds[step]
                 ground = self._heights(command.terrain)(foothold)
                 ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
-                if phase == DESCENT:
-                    # the estimate's speed error at the apex carries into its position as the body flies on
-                    ex += exd * (t - s[PHASE_START])
+                # (this branch is the descent, begun at the apex) the estimate's speed error at the apex carries
+                # into its position as the body flies on
+                ex += exd * (t - s[PHASE_START])
                 target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
                                          slip.leg_length - p.foot_radius, p.foot_radius, g)
                 if step < len(command.angle_errors):
