@@ -5,9 +5,9 @@ mean planning time per label, where it goes (``Plan.timing``), and the ratios th
 
 For each case (every k-th of each suite, so --cases spread over it) each label plans from the case's start apex
 to the suite's goal --repeats times in turn and the fastest call is kept (the machine's other load slows a call,
-never speeds it). Printed per suite and label: success, mean planning time, step-map calls, planning time per
-step-map call and the step map's own time per call (from the same calls' accounting), the breakdown, then each
---pairs ratio SLOW/FAST of mean planning times.
+never speeds it). Printed per suite and label: success, mean planning time, nodes expanded and step-map calls per
+call, planning time per step-map call and the step map's own time per call (from the same calls' accounting), the
+breakdown, then each --pairs ratio SLOW/FAST of mean planning times.
 
 Exit status: 0 when the timings ran, 2 for a usage or input error.
 """
@@ -71,7 +71,8 @@ def main(argv=None) -> int:
                 plans = [planner.plan(case.apex, case.terrain, suite.goal_x, params) for _ in range(args.repeats)]
                 best[label].append(min(plans, key=lambda p: p.time_s))
         print(f"suite {suite.name}: {len(cases)} cases, the fastest of {args.repeats} calls each")
-        print(f"{'planner':<20} {'success':>8} {'t_plan ms':>10} {'calls':>7} {'us/call':>8} {'map us/call':>11} "
+        print(f"{'planner':<20} {'success':>8} {'t_plan ms':>10} {'nodes':>7} {'calls':>7} {'us/call':>8} "
+              f"{'map us/call':>11} "
               f"{'ratio':>6}   " + " ".join(f"{p[:-2] + ' ms':>14}" for p in PARTS))
         means = {}
         for label, plans in best.items():
@@ -81,8 +82,10 @@ def main(argv=None) -> int:
             parts = {k: statistics.fmean(t[k] for t in timed) if timed else float("nan") for k in PARTS}
             per_call = sum(p.time_s for p in plans) / calls * 1e6 if calls else float("nan")
             map_call = sum(t["step_map_s"] for t in timed) / calls * 1e6 if calls and timed else float("nan")
+            nodes = statistics.fmean(p.nodes_expanded for p in plans)
             print(f"{label:<20} {sum(p.success for p in plans):>4}/{len(plans):<3} {1e3 * means[label]:>10.2f} "
-                  f"{calls / len(plans):>7.0f} {per_call:>8.1f} {map_call:>11.1f} {per_call / map_call:>6.1f}   "
+                  f"{nodes:>7.1f} {calls / len(plans):>7.0f} {per_call:>8.1f} {map_call:>11.1f} "
+                  f"{per_call / map_call:>6.1f}   "
                   + " ".join(f"{1e3 * parts[k]:>14.3f}" for k in PARTS))
         for slow, fast in pairs:
             print(f"  mean t_plan {slow} / {fast} = {means[slow] / means[fast]:.2f}x")

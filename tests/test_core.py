@@ -152,6 +152,6 @@ def test_a_node_whose_candidates_all_lie_in_ditches_has_no_children():
 def test_planning_speed_script_prints_the_ratios(run_script):
     code, out, _ = run_script("planning_speed", "--suites", "suites/ditch.json", "--planners", "step,lstm-guided",
                               "--pairs", "step:lstm-guided", "--cases", "2", "--repeats", "1")
-    assert code == 0 and "mean t_plan step / lstm-guided = " in out and "controller ms" in out
+    assert code == 0 and "mean t_plan step / lstm-guided = " in out and "controller ms" in out and " nodes " in out
     code, _, err = run_script("planning_speed", "--pairs", "step:angle")
     assert code == 2 and "--pairs names labels not in --planners: angle" in err and len(err.strip().splitlines()) == 1
