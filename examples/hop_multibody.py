@@ -40,14 +40,15 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
     from drakeslip.multibody.controller import HopperController
     from drakeslip.multibody.diagram import add_robot_and_terrain
     from drakeslip.multibody.robot import RobotParams
-    from planners.drake_system import FootstepPlannerSystem
+    from planners.drake_system import EnergyPump, FootstepPlannerSystem
 
     robot = RobotParams()
     builder = DiagramBuilder()
     plant, scene_graph, _, layout = add_robot_and_terrain(builder, terrain, robot)
     controller = builder.AddSystem(HopperController(robot, layout))
     planner_system = builder.AddSystem(FootstepPlannerSystem(planner, terrain, goal_x, SlipParams(), layout,
-                                                             robot.time_step, face_keep_out=robot.face_keep_out))
+                                                             robot.time_step, face_keep_out=robot.face_keep_out,
+                                                             pump=EnergyPump.for_robot(robot, SlipParams())))
     builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))
     builder.Connect(plant.get_state_output_port(), controller.GetInputPort("state"))
     builder.Connect(planner_system.GetOutputPort("command"), controller.GetInputPort("command"))

@@ -11,9 +11,10 @@ plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.H
 """
 from __future__ import annotations
 
+import math
 import time
 import zlib
-from dataclasses import asdict, replace
+from dataclasses import asdict, dataclass, replace
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -21,7 +22,8 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import LeafSystem
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.multibody.controller import FootholdCommand, touchdown_angle
+from drakeslip.multibody.controller import (CLEARANCE, STANCE_TIME, FootholdCommand, neutral_angle,
+                                            touchdown_angle)
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HOP_SECONDS, HopMonitor
@@ -33,6 +35,54 @@ from drakeslip.units import units_of
 
 RISING = 0.2       # [m/s] a body rising faster than this is in flight toward an apex (not jostled by its leg)
 GOAL_SIGMAS = 5.0   # under state noise the planner aims this many standard deviations of x past the goal
+PUMP_RISE = 0.15    # [m] apex height a pumping hop adds (``EnergyPump``), in the paper's hopper's lengths
+PUMPS_WITHOUT_PLAN = 3   # pumping hops in a row from apexes with no plan before the robot gives up
+LEVEL = 0.02        # [m] ground this close to the height under the hip is level for a hop in place, in the paper's
+                    # hopper's lengths (its terrains' steps are 5 cm or more)
+
+
+@dataclass(frozen=True)
+class EnergyPump:
+    """The robot's use of its leg actuator beyond the template's: the template has none, so every apex of a plan
+    keeps the energy of the apex it starts from, and from a low start before a high step its only plans skim over
+    the step with the body less than a leg length above it. A robot's leg, swung through under the hip in flight,
+    meets the ground there. When a plan passes an apex from which the foot, held at the neutral angle through the
+    apex (``neutral_angle``), is less than the controller's ``CLEARANCE`` above the ground under it or the ground
+    under the hip, the robot flies the plan's first hop and aims its stance at an apex ``rise`` [m] higher than
+    the one it left; the next apex's plan starts from there. From an apex with no plan (a start too low for the
+    template to climb anything ahead, say) it hops on the spot's level ground instead, at its speed by Raibert's
+    foot placement, to an apex ``rise`` higher where the ground is ``level`` [m] for the hop (``room``), up to
+    PUMPS_WITHOUT_PLAN times in a row. ``reach`` [m]: hip to the foot's contact at the leg's rest length."""
+
+    reach: float
+    rise: float
+    level: float
+
+    @classmethod
+    def for_robot(cls, robot: RobotParams, params: SlipParams) -> "EnergyPump":
+        """``robot``'s pump when it plans for the template ``params``: its leg's reach, PUMP_RISE and LEVEL in
+        the template's lengths."""
+        length = units_of(params).length
+        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length)
+
+    def needed(self, apexes, terrain: Terrain) -> bool:
+        """Whether any of the planned ``apexes`` ((x, z, xdot) rows) is one the leg cannot swing through."""
+        for x, z, xdot in apexes:
+            angle = neutral_angle(xdot, self.reach)
+            foot_x = x + self.reach * math.sin(angle)
+            ground = max(float(terrain.height_at(x)), float(terrain.height_at(foot_x)))
+            if z - self.reach * math.cos(angle) - ground < CLEARANCE:
+                return True
+        return False
+
+    def room(self, apex: ApexState, terrain: Terrain, gravity: float) -> bool:
+        """Whether a hop from ``apex`` at its speed to an apex ``rise`` higher lands and lifts off on level ground:
+        the ground from a leg behind the hip to a leg past that apex within ``level`` of the ground under the hip."""
+        ground = float(terrain.height_at(apex.x))
+        fall = max(apex.z - ground - self.reach, 0.0)
+        hop = apex.xdot * (math.sqrt(2 * fall / gravity) + STANCE_TIME + math.sqrt(2 * (fall + self.rise) / gravity))
+        xs = np.arange(apex.x - self.reach, apex.x + hop + self.reach, 0.5 * terrain.cell)
+        return bool(np.all(np.abs(terrain.height_at(xs) - ground) <= self.level))
 
 
 class FootstepPlannerSystem(LeafSystem):
@@ -43,12 +93,13 @@ class FootstepPlannerSystem(LeafSystem):
     ``time_step`` (how often it checks for an apex), ``noise`` and ``seed`` (state and perception errors drawn
     at each apex), ``map_filter`` (the robot's median filter on its sensed map), ``face_keep_out`` (how far
     before a step's face [m] it places no foothold: the planner plans on the sensed map less those footholds,
-    ``Terrain.without_footholds_before_rises``; the command keeps the sensed map). Abstract state: the command and
+    ``Terrain.without_footholds_before_rises``; the command keeps the sensed map), ``pump`` (an ``EnergyPump``:
+    when the robot raises its energy beyond the template's; None: never). Abstract state: the command and
     the number of plans made; ``records`` lists one summary per planning call of the latest run."""
 
     def __init__(self, planner, terrain: Terrain, goal_x: float, params: SlipParams, layout: StateLayout,
                  time_step: float = 1e-3, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
-                 replan_every: int = 1, face_keep_out: float = 0.0):
+                 replan_every: int = 1, face_keep_out: float = 0.0, pump: EnergyPump | None = None):
         super().__init__()
         if isinstance(planner, str):
             import planners
@@ -57,6 +108,7 @@ class FootstepPlannerSystem(LeafSystem):
         self.planner, self.terrain, self.goal_x, self.params = planner, terrain, float(goal_x), params
         self.noise, self.map_filter, self.replan_every = noise or NoiseProfile(), map_filter, int(replan_every)
         self.face_keep_out = check_number(face_keep_out, "FootstepPlannerSystem face_keep_out")
+        self.pump = pump
         self.rng = np.random.default_rng(seed)
         self._z, self._vz = layout.q[0:2], layout.v[0:2]
         self._q, self._v = list(layout.q), list(layout.v)
@@ -88,6 +140,15 @@ class FootstepPlannerSystem(LeafSystem):
         apex = ApexState(float(q[0]), float(q[1]), float(v[0]))
         state.get_mutable_abstract_state(self._command).set_value(self.plan(apex, command.stamp + 1))
 
+    def _pumps_without_plan(self) -> int:
+        """Pumping hops in a row, up to now, from apexes with no plan."""
+        count = 0
+        for record in reversed(self.records):
+            if record["success"] or "pumped" not in record:
+                break
+            count += 1
+        return count
+
     def plan(self, apex: ApexState, stamp: int) -> FootholdCommand:
         """Plan from the true ``apex`` as the robot estimates and perceives it; the command numbered ``stamp``."""
         noise = self.noise
@@ -107,24 +168,36 @@ class FootstepPlannerSystem(LeafSystem):
         if not noise.silent:
             record["seen_apex"] = list(seen)
         footholds = tuple(record["footholds"]) if record["success"] else ()
+        g = self.params.gravity
+        if self.pump is None:
+            pump = False
+        elif record["success"]:
+            pump = self.pump.needed(plan.apexes, sensed)
+        else:
+            pump = self._pumps_without_plan() < PUMPS_WITHOUT_PLAN and self.pump.room(seen, sensed, g)
+        # energy None: the controller keeps each apex's energy, as the template the plan was made for does
+        energy = g * (seen.z + self.pump.rise) + 0.5 * seen.xdot ** 2 if pump else None
+        if pump:
+            record["pumped"] = self.pump.rise
         self.records.append(record)
         errors_told = (tuple(float(e) for e in errors),)
-        # energy None: the controller keeps each apex's energy, as the template the plan was made for does
-        return FootholdCommand(footholds, sensed, None, stamp, 0.0, errors_told)
+        return FootholdCommand(footholds, sensed, energy, stamp, seen.xdot if pump else 0.0, errors_told)
 
 
 def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipParams, robot: RobotParams | None = None,
                       *, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
                       replan_every: int = 1, inject_energy: bool = True, meshcat=None,
-                      known: RobotParams | None = None) -> HopperDiagram:
+                      known: RobotParams | None = None, pump_energy: bool = True) -> HopperDiagram:
     """Plant and scene graph (the robot, ``terrain``), the planner system (``planner`` for the template
     ``params``) and the controller (for the robot ``known``, default ``robot``), with optional Meshcat, as one
-    Diagram (``HopperDiagram.diagram``)."""
+    Diagram (``HopperDiagram.diagram``). ``pump_energy``: the robot raises its energy where the template's plans
+    skim (``EnergyPump``, ``PUMP_RISE``)."""
     robot = robot or RobotParams(slip=SlipParams(friction=params.friction))
+    pump = EnergyPump.for_robot(known or robot, params) if pump_energy else None
 
     def make_planner(layout: StateLayout) -> FootstepPlannerSystem:
         system = FootstepPlannerSystem(planner, terrain, goal_x, params, layout, robot.time_step, noise, seed,
-                                       map_filter, replan_every, robot.face_keep_out)
+                                       map_filter, replan_every, robot.face_keep_out, pump)
         system.set_name("footstep_planner")
         return system
 
@@ -135,7 +208,7 @@ def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipPara
 def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: RobotParams | None = None, *,
                     noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1, max_hops: int = 60,
                     replan_every: int = 1, inject_energy: bool = True, trajectory: bool = False,
-                    meshcat=None) -> dict:
+                    meshcat=None, pump_energy: bool = True) -> dict:
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the closed-loop Diagram, replanning at every
     apex, until the body passes ``goal_x`` at an apex, a failure, no plan, or ``max_hops``. Returns {"id",
     "success", "failure", "what", "final_x", "plans", "hops", "max_pitch", "simulated_s", "wall_s"} (and "log",
@@ -150,14 +223,15 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
         robot = replace(model, slip=noise.executed_params(model.slip, np.random.default_rng(rng_seed)))
     hd = build_closed_loop(planner, case.terrain, goal_x, params, robot, noise=noise,
                            seed=np.random.SeedSequence(rng_seed).generate_state(1)[0], map_filter=map_filter,
-                           replan_every=replan_every, inject_energy=inject_energy, meshcat=meshcat, known=model)
+                           replan_every=replan_every, inject_energy=inject_energy, meshcat=meshcat, known=model,
+                           pump_energy=pump_energy)
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     apex = ApexState(*map(float, case.apex))
     # the first plan is made before the start, so that the leg starts aimed at its first foothold
     first = hd.planner.plan(apex, 0)
     hd.planner.GetMyMutableContextFromRoot(context).SetAbstractState(0, first)
-    angle = 0.0 if not first.footholds else touchdown_angle(
+    angle = hd.controller.raibert_angle(apex.xdot, first.speed) if not first.footholds else touchdown_angle(
         apex.x, apex.z, apex.xdot, 0.0, first.footholds[0], first.terrain.height_at(first.footholds[0]),
         robot.rest_extension, robot.foot_radius, robot.slip.gravity)
     set_apex_state(hd, context, apex, angle, loss_prior(apex.xdot))
@@ -191,7 +265,7 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
 
 class _GoalMonitor(HopMonitor):
     """HopMonitor that ends the run at the first apex past the goal (outcome "goal"), when the planner found no
-    plan ("NO_PLAN"), or at the hop cap ("HOP_CAP")."""
+    plan and the robot does not pump instead ("NO_PLAN"), or at the hop cap ("HOP_CAP")."""
 
     def __init__(self, hd, terrain, context, max_hops, goal_x, trajectory):
         super().__init__(hd, terrain, context, None, trajectory)
@@ -208,7 +282,8 @@ class _GoalMonitor(HopMonitor):
         apexes = self.log.apexes
         if apexes and apexes[-1].x >= self.goal_x:
             self.outcome = "goal"
-        elif self.hd.planner.records and not self.hd.planner.records[-1]["success"]:
+        elif self.hd.planner.records and not self.hd.planner.records[-1]["success"] \
+                and "pumped" not in self.hd.planner.records[-1]:
             self.outcome = "NO_PLAN"
         elif len(self.log.footholds) >= self.max_hops:
             self.outcome = "HOP_CAP"

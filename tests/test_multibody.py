@@ -1,6 +1,6 @@
 """The multibody hopper: its model and terrain geometry, the closed loop crossing a ditch, the controller's energy
-injection mattering, the planner system in a diagram built by hand, and the controller built for the model under a
-noise profile's model mismatch."""
+injection mattering, the planner system in a diagram built by hand, the robot pumping energy the template has not,
+and the controller built for the model under a noise profile's model mismatch."""
 import importlib.util
 from pathlib import Path
 from types import SimpleNamespace
@@ -133,6 +133,51 @@ def test_after_liftoff_the_foot_rises_where_it_stood():
     body, foot = x[clear] - x[liftoff], foot_x[clear] - foot_x[liftoff]
     assert clear > liftoff and body > 0.02
     assert abs(foot) < 0.6 * body   # a leg left to swing on by itself lets the hip drag the foot about 2/3 as far
+
+
+def test_the_pump_asks_for_energy_where_the_foot_cannot_swing_through_under_the_apex():
+    from planners.drake_system import EnergyPump
+
+    pump, flat = EnergyPump(0.5, 0.15, 0.02), ds.Terrain.flat()
+    assert pump.needed([(0.0, 0.52, 0.5)], flat)            # a slow apex a leg length up: the foot scrapes
+    assert not pump.needed([(0.0, 0.6, 0.5)], flat)
+    assert not pump.needed([(0.0, 0.5, 3.3)], flat)          # a fast skim: the leg waits far forward
+    step = ds.Terrain(np.where(np.arange(200) * 0.05 - 3.0 >= 0.05, 0.1, 0.0), cell=0.05, x0=-3.0)
+    assert pump.needed([(0.0, 0.6, 1.0)], step)              # the ground ahead under the foot is what counts
+    assert not pump.needed([(0.0, 0.6, 1.0)], flat)
+    apex = ds.ApexState(-1.0, 0.8, 1.0)                      # a hop in place covers about 0.7 m at 1 m/s
+    assert pump.room(apex, flat, 9.81) and not pump.room(apex, step, 9.81)
+    assert pump.room(ds.ApexState(-2.0, 0.8, 1.0), step, 9.81)
+
+
+def test_from_a_start_with_no_plan_the_robot_pumps_on_level_ground_until_it_has_one():
+    from drakeslip.multibody.fit import fitted_template
+    from planners.drake_system import run_closed_loop
+
+    case = SimpleNamespace(id="step-7714-v1-z0.8", terrain=ds.step_world(7714), apex=(-1.0, 0.8, 1.0))
+    result = run_closed_loop("step@robust", case, 6.0, fitted_template().with_friction(0.8), RobotParams(),
+                             map_filter=5)
+    first = result["plans"][0]
+    assert not first["success"] and "pumped" in first and not first["footholds"]
+    assert result["success"], result["what"]
+    assert any(record["success"] for record in result["plans"])
+
+
+def test_a_low_start_before_a_high_step_crosses_because_the_robot_pumps_energy():
+    """From 0.8 m at 2 m/s the template's only plans over the 0.49 m step skim it with the body less than a leg
+    length above it; the robot's leg, swung through under the hip, falls into the step unless the robot raises
+    its energy first."""
+    from drakeslip.multibody.fit import fitted_template
+    from planners.drake_system import run_closed_loop
+
+    case = SimpleNamespace(id="step-7714-v2-z0.8", terrain=ds.step_world(7714), apex=(-1.0, 0.8, 2.0))
+    template = fitted_template().with_friction(0.8)
+    runs = {pump: run_closed_loop("step@robust", case, 6.0, template, RobotParams(), map_filter=5,
+                                  pump_energy=pump) for pump in (True, False)}
+    assert runs[True]["success"], runs[True]["what"]
+    assert any("pumped" in record for record in runs[True]["plans"])
+    assert not runs[False]["success"] and runs[False]["failure"] == "BODY_COLLISION"
+    assert not any("pumped" in record for record in runs[False]["plans"])
 
 
 def test_a_speed_error_in_the_apex_estimate_carries_into_where_the_foot_lands():

@@ -141,6 +141,12 @@ LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while t
 SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
 
 
+def neutral_angle(xdot: float, leg_length: float, offset: float = 0.0) -> float:
+    """The leg angle that puts the foot at the neutral point, half the stance's travel (``STANCE_TIME``) ahead of
+    the hip at forward speed ``xdot``, plus ``offset`` [m]: where the leg waits through the apex in flight."""
+    return math.asin(max(-0.8, min(0.8, (0.5 * xdot * STANCE_TIME + offset) / leg_length)))
+
+
 class HopperController(LeafSystem):
     """Input ports ``state`` (the plant's state vector, read through ``layout``) and ``command`` (abstract
     ``FootholdCommand``); output ``actuation`` (the plant's actuation vector). Discrete state: see STATE_SIZE."""
@@ -212,8 +218,7 @@ class HopperController(LeafSystem):
     def raibert_angle(self, xdot: float, speed: float) -> float:
         """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
         plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
-        offset = 0.5 * xdot * STANCE_TIME + SPEED_GAIN * (xdot - speed)
-        return math.asin(max(-0.8, min(0.8, offset / self.params.slip.leg_length)))
+        return neutral_angle(xdot, self.params.slip.leg_length, SPEED_GAIN * (xdot - speed))
 
     def _update(self, context, discrete_state):
         p = self.params
@@ -225,6 +230,8 @@ class HopperController(LeafSystem):
         t = context.get_time()
         if command.stamp != s[STAMP]:
             s[STAMP], s[STEP] = command.stamp, 0.0
+            if command.energy is not None and s[PHASE] == DESCENT:
+                s[TARGET] = command.energy   # the command of the planner's apex (the apex this descent began at)
         rest, g = p.rest_extension, slip.gravity
         phase = s[PHASE]
         if phase == ASCENT and zd <= 0.0:
