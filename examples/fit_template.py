@@ -6,7 +6,8 @@ Runs --cases cases of each suite (every --every-th) in the robot's closed loop w
 hop (apex, foothold -> next apex), fits the template's leg length and stiffness to the robot's apex-to-apex map
 (drakeslip/multibody/fit.py), prints the per-hop prediction errors (median and 90th percentile in x, z, xdot) of
 the paper's template, of the fitted one and of the one the planners use now ("current", when there is one), on
-the hops fitted and on held-out hops (the next cases), and writes the fitted template (drakeslip-hopper/1; the
+the hops fitted and on held-out hops (the next cases), and over all of them by the hop's speed change
+("by_speed_change", m/s bands), and writes the fitted template (drakeslip-hopper/1; the
 multibody backend's planners plan for the one at the default --out). Exit status: 0 written, 1 no hops
 recorded, 2 bad input.
 """
@@ -46,7 +47,7 @@ def main(argv=None) -> int:
     from dataclasses import replace
 
     from drakeslip.hopper_file import Hopper, save_hopper
-    from drakeslip.multibody.fit import FIT_NAME, errors, fit, fitted_template, summary
+    from drakeslip.multibody.fit import FIT_NAME, by_speed_change, errors, fit, fitted_template, summary
     from drakeslip.params import SlipParams
     from planners.formats.suite import load_suite
 
@@ -71,6 +72,7 @@ def main(argv=None) -> int:
     if current is not None:   # the template the multibody backend's planners plan for now
         templates["current"] = current
     report = {name: {"fit": summary(errors(train, t)), "held_out": summary(errors(test, t)),
+                     "by_speed_change": by_speed_change(train + test, errors(train + test, t)),
                      "leg_length": t.leg_length, "stiffness": t.stiffness} for name, t in templates.items()}
     print(json.dumps(report, indent=1))
     save_hopper(Hopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)

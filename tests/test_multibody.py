@@ -246,6 +246,17 @@ def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
     assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])
 
 
+def test_the_fit_reports_its_errors_by_the_hops_speed_change():
+    from drakeslip.multibody.fit import Hop, by_speed_change
+
+    hops = [Hop((0.0, 0.8, 2.0), 0.5, 0.0, (1.0, 0.8, v)) for v in (0.5, 1.5, 1.6, 3.5)]
+    err = np.array([[0.07, 0.02, 0.1], [0.01, 0.0, 0.0], [0.03, 0.0, 0.0], [0.02, 0.0, 0.0]])
+    bands = by_speed_change(hops, err)
+    assert [b["band"] for b in bands] == [[None, -1.0], [-1.0, 0.0], [1.0, None]]
+    assert [b["hops"] for b in bands] == [1, 2, 1]
+    assert bands[0]["median_x"] == 0.07 and bands[1]["median_x"] == pytest.approx(0.02)
+
+
 def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
     """The replay shows the robot's own geometry (blue body, dark upper leg, red foot) over the terrain."""
     from test_meshcat_replay import require_browser, screenshot

@@ -5,7 +5,8 @@ A hop is (apex, foothold, foothold height) -> next apex. The template predicts i
 foot lands where the robot's did (the SLIP's touchdown geometry with the template's leg length) and stepping its
 map (``drakeslip.stepmap``); heights are taken relative to the foothold, where the stance happens. ``fit``
 searches the leg length and the stiffness (the map depends on stiffness over mass only, so the mass stays the
-robot body's) by Nelder-Mead on the squared x and z errors, and ``errors`` reports the per-hop errors.
+robot body's) by Nelder-Mead on the squared x and z errors, ``errors`` reports the per-hop errors and
+``by_speed_change`` their summary by how much the hop changed the robot's speed.
 """
 from __future__ import annotations
 
@@ -22,6 +23,9 @@ from drakeslip.terrain import Terrain
 
 FIT_NAME = "multibody"   # the fitted template's hopper name
 TEMPLATE_FILE = Path(__file__).resolve().parent / "template.json"   # where examples/fit_template.py writes it
+# [m/s] the speed changes per hop the errors are also reported between: a hop that brakes hard lands its leg far
+# ahead, where the next apex changes steeply with the stance, and the robot strays from the template most there
+SPEED_CHANGE_EDGES = (-1.0, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -72,6 +76,21 @@ def summary(err: np.ndarray) -> dict:
     return {"hops": int(len(err)), "template_failed": int((~ok).sum()),
             **{f"{stat}_{name}": float(fn(e[:, i])) for i, name in enumerate(("x", "z", "xdot"))
                for stat, fn in (("median", np.median), ("p90", lambda v: np.percentile(v, 90)))}}
+
+
+def by_speed_change(hops: list[Hop], err: np.ndarray, edges=SPEED_CHANGE_EDGES) -> list[dict]:
+    """``summary`` of the per-hop errors ``err`` over the hops in each band of the robot's speed change (the next
+    apex's xdot minus the apex's [m/s]): below ``edges[0]``, between consecutive edges, from the last up; each with
+    its "band" [low, high] (None: unbounded). Bands without hops are left out."""
+    change = np.array([h.next_apex[2] - h.apex[2] for h in hops])
+    bounds = (-math.inf, *edges, math.inf)
+    bands = []
+    for low, high in zip(bounds, bounds[1:]):
+        inside = (change >= low) & (change < high)
+        if inside.any():
+            bands.append({"band": [low if math.isfinite(low) else None, high if math.isfinite(high) else None],
+                          **summary(err[inside])})
+    return bands
 
 
 def fit(hops: list[Hop], start: SlipParams) -> SlipParams:
