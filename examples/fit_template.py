@@ -71,9 +71,12 @@ def main(argv=None) -> int:
     current = fitted_template()
     if current is not None:   # the template the multibody backend's planners plan for now
         templates["current"] = current
-    report = {name: {"fit": summary(errors(train, t)), "held_out": summary(errors(test, t)),
-                     "by_speed_change": by_speed_change(train + test, errors(train + test, t)),
-                     "leg_length": t.leg_length, "stiffness": t.stiffness} for name, t in templates.items()}
+    report = {}
+    for name, t in templates.items():
+        err = errors(train + test, t)   # the fitted hops' rows, then the held-out ones'
+        report[name] = {"fit": summary(err[:len(train)]), "held_out": summary(err[len(train):]),
+                        "by_speed_change": by_speed_change(train + test, err),
+                        "leg_length": t.leg_length, "stiffness": t.stiffness}
     print(json.dumps(report, indent=1))
     save_hopper(Hopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)
     print(f"wrote {args.out}")
