@@ -244,6 +244,7 @@ def test_the_fit_recovers_a_templates_leg_and_spring_from_its_hops():
     fitted = fit(hops, ds.SlipParams())
     assert fitted.leg_length == pytest.approx(0.48, abs=2e-3) and fitted.stiffness == pytest.approx(3600, rel=0.02)
     assert np.nanmax(errors(hops, fitted)[:, :2]) < 2e-3 < np.nanmax(errors(hops, ds.SlipParams())[:, :2])
+    assert predict([], truth).shape == (0, 3) and errors([], truth).shape == (0, 3)
 
 
 def test_the_fit_reports_its_errors_by_the_hops_speed_change():

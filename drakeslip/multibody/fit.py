@@ -50,6 +50,8 @@ def predict(hops: list[Hop], params: SlipParams) -> np.ndarray:
     """(n, 3) the template's next apex for each hop (NaN rows where its hop fails)."""
     from drakeslip.stepmap import step_batch
 
+    if not hops:
+        return np.empty((0, 3))
     rows = np.array([(h.apex[0], h.apex[1] - h.height, h.apex[2]) for h in hops], dtype=np.float64)
     angles = np.array([touchdown_angle(x, z, xd, 0.0, h.foothold, 0.0, params.leg_length, 0.0, params.gravity)
                        for (x, z, xd), h in zip(rows, hops)])
@@ -66,7 +68,7 @@ def predict(hops: list[Hop], params: SlipParams) -> np.ndarray:
 
 def errors(hops: list[Hop], params: SlipParams) -> np.ndarray:
     """(n, 3) |predicted - robot| next apex, per hop (x [m], z [m], xdot [m/s]); NaN where the template fails."""
-    return np.abs(predict(hops, params) - np.array([h.next_apex for h in hops]))
+    return np.abs(predict(hops, params) - np.array([h.next_apex for h in hops], dtype=np.float64).reshape(-1, 3))
 
 
 def summary(err: np.ndarray) -> dict:
