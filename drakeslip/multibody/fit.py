@@ -50,9 +50,7 @@ def predict(hops: list[Hop], params: SlipParams) -> np.ndarray:
     """(n, 3) the template's next apex for each hop (NaN rows where its hop fails)."""
     from drakeslip.stepmap import step_batch
 
-    if not hops:
-        return np.empty((0, 3))
-    rows = np.array([(h.apex[0], h.apex[1] - h.height, h.apex[2]) for h in hops], dtype=np.float64)
+    rows = np.array([(h.apex[0], h.apex[1] - h.height, h.apex[2]) for h in hops], dtype=np.float64).reshape(-1, 3)
     angles = np.array([touchdown_angle(x, z, xd, 0.0, h.foothold, 0.0, params.leg_length, 0.0, params.gravity)
                        for (x, z, xd), h in zip(rows, hops)])
     ok = rows[:, 1] > params.leg_length * np.cos(angles) + 1e-3
