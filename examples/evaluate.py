@@ -66,6 +66,9 @@ def main(argv=None) -> int:
     ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",
                     help="what executes the plans: the Drake simulator of the SLIP (the protocol), the fast step "
                          "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
+    ap.add_argument("--no-pump", action="store_true",
+                    help="ablation, multibody backend: the robot does not raise its apex with its leg actuator "
+                         "where a plan skims the ground (planners.drake_system.EnergyPump)")
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
     ap.add_argument("--baseline", default=None,
@@ -80,6 +83,8 @@ def main(argv=None) -> int:
         options = label_options(args.options, labels)
     except ValueError as error:
         ap.error(str(error))
+    if args.no_pump and args.backend != "multibody":
+        ap.error(f"--no-pump needs --backend multibody, got --backend {args.backend}")
     if args.baseline is not None and args.baseline not in labels:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {labels}")
     executor = cli.executor(args)
@@ -94,6 +99,7 @@ def main(argv=None) -> int:
         from drakeslip.multibody.fit import fitted_template
 
         loop_options["template"] = fitted_template()
+        loop_options["pump_energy"] = not args.no_pump
     configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
                                        refine=not args.mlp_only, noise=args.noise, seed=args.seed)
                for label in labels}

@@ -39,7 +39,8 @@ class ClosedLoopConfig:
     keep their footholds clear of. ``robot``: on the multibody backend, the robot's ``RobotParams`` (None: the
     default robot with the case's friction), recorded with the results; ``template``: the SLIP the planners plan
     for there (None: the hopper's own parameters), e.g. the one fitted to the robot (``drakeslip.multibody.fit``),
-    with the case's friction."""
+    with the case's friction; ``pump_energy``: there, the robot raises its apex with its leg actuator where a
+    plan skims the ground (``planners.drake_system.EnergyPump``; False: an ablation)."""
 
     executed_per_plan: int = EXECUTED_PER_PLAN
     max_hops: int = MAX_HOPS
@@ -50,6 +51,7 @@ class ClosedLoopConfig:
     map_filter: int = 1
     robot: object = None
     template: SlipParams | None = None
+    pump_energy: bool = True
 
     def to_dict(self) -> dict:
         record = {"executed_per_plan": self.executed_per_plan, "max_hops": self.max_hops, "backend": self.backend,
@@ -58,6 +60,7 @@ class ClosedLoopConfig:
         if self.backend == "multibody":
             record["robot"] = robot_record(self.robot)
             record["template"] = None if self.template is None else asdict(self.template)
+            record["pump_energy"] = self.pump_energy
         return record
 
     def __post_init__(self):
@@ -159,6 +162,6 @@ def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: Clos
         robot = RobotParams(slip=params)
     result = run_closed_loop(planner, case, goal_x, template, robot, noise=config.noise, seed=config.seed,
                              map_filter=config.map_filter, max_hops=config.max_hops,
-                             replan_every=config.executed_per_plan)
+                             replan_every=config.executed_per_plan, pump_energy=config.pump_energy)
     result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
     return result

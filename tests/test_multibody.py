@@ -121,7 +121,7 @@ def test_the_leg_swings_back_as_it_lands_so_the_foot_meets_the_ground_slower_tha
     foot_speed = (foot_x[first] - foot_x[first - 5]) / dt
     body_speed = (x[first] - x[first - 5]) / dt
     assert angle[first] < angle[first - 5]   # the leg is swinging back
-    assert 0.0 < foot_speed < 0.7 * body_speed
+    assert 0.0 < foot_speed < 0.9 * body_speed   # about 0.8 (LANDING_SWING_SHARE); 1.0 without the swing
 
 
 def test_after_liftoff_the_foot_rises_where_it_stood():
@@ -282,3 +282,27 @@ def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
     terrain = ((r > b + 15) & (g > b + 5) & (r < 200)).sum()
     dark = ((r < 60) & (g < 60) & (b < 60)).sum()
     assert body > 500 and foot > 30 and terrain > 0.05 * r.size and dark > 50, (body, foot, terrain, dark)
+
+
+def test_the_closed_loop_config_switches_the_pump_and_records_it(monkeypatch, run_script):
+    """``evaluate.py --no-pump`` reaches the robot's diagram, is part of the results' config (so cached cases of
+    the other setting are not reused), and is a usage error on a backend without the robot."""
+    import planners.drake_system as drake_system
+    from planners.closed_loop import ClosedLoopConfig, run_case
+
+    seen = []
+
+    def run(*args, **kwargs):
+        seen.append(kwargs["pump_energy"])
+        raise StopIteration
+
+    monkeypatch.setattr(drake_system, "run_closed_loop", run)
+    for pump in (True, False):
+        config = ClosedLoopConfig(backend="multibody", pump_energy=pump)
+        with pytest.raises(StopIteration):
+            run_case("step@robust", None, _ditches_case(), 4.0, ds.SlipParams(), config)
+        assert config.to_dict()["pump_energy"] is pump
+    assert seen == [True, False]
+    code, _, err = run_script("evaluate", "--suite", ROOT / "suites" / "ditch.json", "--planners", "step",
+                              "--backend", "fast", "--no-pump", "--out", "unused.json")
+    assert code == 2 and "--no-pump needs --backend multibody, got --backend fast" in err

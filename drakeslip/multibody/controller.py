@@ -133,9 +133,11 @@ LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (ho
 LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (hopper.sdf)
 STANCE_TIME = 0.15        # [s] about half the body-on-spring period, pi sqrt(m / k) for the paper's hopper
 # Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
-# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.6 of the body's
-# speed (tests/test_multibody.py)
-LANDING_SWING_SHARE = 0.5
+# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.8 of the body's
+# speed (tests/test_multibody.py). A foot landing at the body's speed slides before the leg's force holds it; the
+# faster the leg swings back as it lands, the less a hop that lands far ahead brakes than the template's, and the
+# robot reaches its next apex faster and farther than planned, where the planner may have no plan (docs/multibody.md)
+LANDING_SWING_SHARE = 0.25
 LANDING_SWING_TIME = 0.06   # [s]
 LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while the foot rises where it stood
 SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
