@@ -121,7 +121,7 @@ def test_the_leg_swings_back_as_it_lands_so_the_foot_meets_the_ground_slower_tha
     foot_speed = (foot_x[first] - foot_x[first - 5]) / dt
     body_speed = (x[first] - x[first - 5]) / dt
     assert angle[first] < angle[first - 5]   # the leg is swinging back
-    assert 0.0 < foot_speed < 0.9 * body_speed   # about 0.8 (LANDING_SWING_SHARE); 1.0 without the swing
+    assert 0.7 * body_speed < foot_speed < 0.9 * body_speed   # about 0.8 (LANDING_SWING_SHARE)
 
 
 def test_after_liftoff_the_foot_rises_where_it_stood():
