@@ -40,3 +40,10 @@ HORIZON = Bound(0.0, 1e3, "m")             # how far ahead of the body a planner
 # The most cells a perception window holds: an 11 m window of 1 mm cells has 11,000; a window of more cells than
 # this comes from a window size no robot perceives.
 MAX_WINDOW_CELLS = 1_000_000
+# A terrain file (drakeslip/terrain_file.py) is read whole, number by number in Python (about a microsecond each),
+# and resampled onto cells: these keep that to about a second and tens of MB, each checked before the work it
+# bounds. 400,000 numbers are a profile of 200,000 x,height rows (200 m at 1 mm, 20 km at 10 cm; the paper's maps
+# have 150 cells), about 8 MB at full precision. A million cells of 1 mm are a kilometre.
+TERRAIN_FILE_BYTES = 16 * 2**20            # the file's size, checked before it is read
+TERRAIN_NUMBERS = 400_000                  # the numbers (x values and heights) of its rows, counted as they are read
+TERRAIN_CELLS = 1_000_000                  # cells of the map the rows are resampled onto

@@ -5,8 +5,9 @@ starting with ``#`` are skipped, except that a comment may carry ``cell: C`` and
 
 * **A profile**: rows ``x,height`` with x increasing; each height holds from its x to the next row's x, the last
   one for one cell. An optional first row of names (``x,height``) is skipped. The rows are resampled onto cells of
-  ``cell`` [m]: the ``cell`` argument, else a ``# cell: C`` comment, else the smallest spacing of the rows
-  (rounded to 9 significant digits), which every row covers at least one cell of. The grid starts at the first
+  ``cell`` [m]: the ``cell`` argument, else a ``# cell: C`` comment, else the smallest spacing of the rows (the
+  shortest decimal, of at most 9 significant digits, within the float rounding of its two x values: rows at
+  x = 10000.000 and 10000.001 are 1 mm apart, not 0.000999999998 m), which every row covers at least one cell of. The grid starts at the first
   row's x. A cell takes the highest height over it, and is a gap when any part of it is one (a hole anywhere in a
   cell makes it no foothold), so rows on the grid come out exactly and rows off it are never lost.
 * **Heights per cell**: a comment ``# cell: 0.1, x0: -3`` (both keys, in any order) and then the heights of
@@ -17,7 +18,11 @@ A gap (ditch) is an empty field, ``-inf`` or ``nan``. Gap cells become a Terrain
 DITCH_HEIGHT (the paper's -1 m) when that is at least DITCH_DEPTH below every solid cell, else DITCH_DEPTH below
 the lowest solid cell; ``ditch_height`` stays DITCH_HEIGHT while every solid cell is above it, else it is the ditch
 floor. Either way exactly the gap cells are ditches, and the paper's terrains keep their -1 m ditches.
-A malformed file raises one ValueError naming the file, the line and what is wrong.
+A malformed file raises one ValueError naming the file, the line and what is wrong. So does one outside the
+bounds of ``drakeslip.bounds``, each checked before the work it bounds: the file's size (TERRAIN_FILE_BYTES, before
+it is read), the numbers in its rows (TERRAIN_NUMBERS, as they are read), every x and x0, the end of the ground and
+every height (POSITION: a run's start and goal on the ground are positions), the cell (CELL), and the cells the
+rows are resampled onto (TERRAIN_CELLS, before they are made).
 """
 from __future__ import annotations
 
@@ -28,8 +33,9 @@ from pathlib import Path
 
 import numpy as np
 
+from drakeslip.bounds import CELL, POSITION, TERRAIN_CELLS, TERRAIN_FILE_BYTES, TERRAIN_NUMBERS
 from drakeslip.jobs.files import atomic_write, first_line
-from drakeslip.params import check_number
+from drakeslip.params import check_number, shown
 from drakeslip.terrain import DITCH_HEIGHT, Terrain
 
 DITCH_DEPTH = 0.5   # [m] a gap's floor lies at least this far below the lowest solid cell
@@ -67,8 +73,12 @@ def load_terrain(path, cell: float | None = None) -> Terrain:
     """The terrain in a profile or heights-per-cell file (see the module doc), on cells of ``cell`` if given."""
     path = Path(path)
     if cell is not None:
-        cell = check_number(cell, "terrain cell size", positive=True)
+        cell = check_number(cell, "terrain cell size", bound=CELL)
     where = f"terrain file {path}"
+    size = path.stat().st_size
+    if size > TERRAIN_FILE_BYTES:
+        raise ValueError(f"{where} is {size / 2**20:.0f} MiB, more than a terrain file's "
+                         f"{TERRAIN_FILE_BYTES / 2**20:.0f} MiB (drakeslip/bounds.py)")
     try:
         text = path.read_text()
     except UnicodeDecodeError as error:
@@ -82,22 +92,33 @@ def load_terrain(path, cell: float | None = None) -> Terrain:
                              f"('# cell: 0.1, x0: -3')")
         file_cell, x0 = header["cell"][0], header["x0"][0]
         heights = [height(field, n, where) for n, fields in rows for field in fields]
+        check_cells(len(heights), file_cell, where)
         xs = x0 + file_cell * np.arange(len(heights))
         x_end = x0 + file_cell * len(heights)
         cell = cell or file_cell
     else:
         xs, heights = profile_rows(rows, where)
-        cell = cell or (header["cell"][0] if "cell" in header else smallest_spacing(xs, where))
+        cell = cell or (header["cell"][0] if "cell" in header else smallest_spacing(xs, rows, where))
         x_end = xs[-1] + cell
     if all(math.isnan(h) for h in heights):
         raise ValueError(f"{where}: no solid cell (every height is a gap)")
+    if x_end > POSITION.high:
+        raise ValueError(f"{where}: the ground ends at x = {x_end:.6g} m, beyond {POSITION}")
+    check_cells(max(1, math.ceil((x_end - xs[0]) / cell - OVERLAP_TOLERANCE)), cell, where)
     return terrain_with_gaps(resample(np.asarray(xs), np.asarray(heights), x_end, cell), cell, float(xs[0]))
+
+
+def check_cells(n: int, cell: float, where: str) -> None:
+    """ValueError unless a map of ``n`` cells of ``cell`` m is within TERRAIN_CELLS (checked before it is made)."""
+    if n > TERRAIN_CELLS:
+        raise ValueError(f"{where} spans {n * cell:.6g} m: {n} cells of {cell:g} m, more than a terrain's "
+                         f"{TERRAIN_CELLS} (drakeslip/bounds.py); give a coarser '# cell: C'")
 
 
 def read_rows(text: str, where: str):
     """({key: (value, line)} from ``cell:``/``x0:`` comments, [(line, fields)] of the data rows), the first data
     row dropped when it is a row of names."""
-    header, rows, names_possible = {}, [], True
+    header, rows, names_possible, values = {}, [], True, 0
     for n, line in enumerate(text.splitlines(), 1):
         stripped = line.strip()
         if not stripped:
@@ -111,6 +132,10 @@ def read_rows(text: str, where: str):
         fields = [f.strip() for f in stripped.split(",")] if "," in stripped else stripped.split()
         if not (names_possible and all(f and not is_number(f) for f in fields)):
             rows.append((n, fields))
+            values += len(fields)
+            if values > TERRAIN_NUMBERS:
+                raise ValueError(f"{where}, line {n}: the rows up to here hold more than {TERRAIN_NUMBERS} numbers "
+                                 f"(drakeslip/bounds.py); give a coarser profile")
         names_possible = False
     return header, rows
 
@@ -120,9 +145,9 @@ def header_number(key: str, value: str, line: int, where: str) -> float:
         number = float(value)
     except ValueError:
         number = math.nan
-    if not math.isfinite(number) or (key == "cell" and number <= 0):
-        kind = "a positive number" if key == "cell" else "a finite number"
-        raise ValueError(f"{where}, line {line}: {key} must be {kind}, got {value!r}")
+    bound = CELL if key == "cell" else POSITION
+    if not bound.low <= number <= bound.high:   # NaN compares False
+        raise ValueError(f"{where}, line {line}: {key} must be a number in {bound}, got {shown(value)}")
     return number
 
 
@@ -145,6 +170,8 @@ def height(field: str, line: int, where: str) -> float:
                          f"(a gap is an empty field, -inf or nan)") from None
     if value == math.inf:
         raise ValueError(f"{where}, line {line}: height {field!r} is not finite (a gap is -inf, nan or empty)")
+    if abs(value) > POSITION.high and value != -math.inf:
+        raise ValueError(f"{where}, line {line}: height must be a number in {POSITION} or a gap, got {shown(field)}")
     return math.nan if value == -math.inf else value
 
 
@@ -159,8 +186,8 @@ def profile_rows(rows, where: str):
             x = float(fields[0])
         except ValueError:
             x = math.nan
-        if not math.isfinite(x):
-            raise ValueError(f"{where}, line {n}: x {fields[0]!r} is not a finite number")
+        if not POSITION.low <= x <= POSITION.high:   # NaN compares False
+            raise ValueError(f"{where}, line {n}: x must be a number in {POSITION}, got {shown(fields[0])}")
         if xs and not x > xs[-1]:
             raise ValueError(f"{where}, line {n}: x={x:g} does not follow x={xs[-1]:g} (x must increase)")
         xs.append(x)
@@ -168,10 +195,23 @@ def profile_rows(rows, where: str):
     return xs, heights
 
 
-def smallest_spacing(xs, where: str) -> float:
+def smallest_spacing(xs, rows, where: str) -> float:
+    """The smallest spacing of the rows' x values, as the module doc says: the shortest decimal of at most 9
+    significant digits within twice the float spacing at the two x values (each x is the float nearest the decimal
+    written, so their difference is off by up to that much), else the spacing to 9 digits. ValueError when it is
+    below the smallest cell (CELL), naming the two rows."""
     if len(xs) < 2:
         raise ValueError(f"{where}: a one-row profile needs the cell size ('# cell: 0.1' or the cell argument)")
-    return float(f"{float(np.diff(xs).min()):.9g}")
+    k = int(np.argmin(np.diff(xs)))
+    spacing = xs[k + 1] - xs[k]
+    rounding = 2.0 * float(np.spacing(max(abs(xs[k]), abs(xs[k + 1]))))
+    spacing = next((short for digits in range(1, 10) if abs((short := float(f"{spacing:.{digits}g}")) - spacing)
+                    <= rounding), float(f"{spacing:.9g}"))
+    if spacing < CELL.low:
+        raise ValueError(f"{where}, lines {rows[k][0]} and {rows[k + 1][0]}: rows {spacing:g} m apart, closer than "
+                         f"the smallest cell, {CELL.low:g} m (drakeslip/bounds.py); give '# cell: C' to resample "
+                         f"them onto cells of C m")
+    return spacing
 
 
 def resample(xs: np.ndarray, heights: np.ndarray, x_end: float, cell: float) -> np.ndarray:
@@ -185,11 +225,10 @@ def resample(xs: np.ndarray, heights: np.ndarray, x_end: float, cell: float) -> 
     last = np.searchsorted(xs, edges[1:] - tolerance, side="left") - 1
     if np.array_equal(first, last):
         return heights[first]
-    out = np.empty(n)
-    for j, (lo, hi) in enumerate(zip(first, last)):
-        over = heights[lo:hi + 1]
-        out[j] = math.nan if np.isnan(over).any() else over.max()
-    return out
+    # the maximum over rows first..last of each cell at once (np.maximum keeps a NaN, a gap), from the bounds
+    # interleaved: the reductions over [first, last + 1) are the even ones; one padding row keeps last + 1 in range
+    bounds = np.column_stack([first, last + 1]).ravel()
+    return np.maximum.reduceat(np.append(heights, 0.0), bounds)[::2]
 
 
 def save_terrain(terrain: Terrain, path) -> None:
