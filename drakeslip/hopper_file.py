@@ -13,7 +13,12 @@ The stroke may be given instead of min_leg_length as ``stroke``, the fraction of
 ``format`` are optional. Saved files spell every field out, with min_leg_length, so they load to the same floats.
 
 A hopper folder holds ``hopper.json``, the weights files trained for that hopper, and a ``SHA256SUMS`` manifest
-(``drakeslip.jobs.files``); ``load_hopper`` takes the folder or the file. The paper's hopper ships as
+(``drakeslip.jobs.files``) listing every one of them; ``load_hopper`` takes the folder or the file. The manifest is
+what the folder holds: a planner whose weights it does not list reads the committed ones, as it does for a lone
+hopper file (a folder just made, before training, lists only ``hopper.json``); a folder without a manifest, a file
+the manifest lists that is missing, or a weights file (``*.pt``) that it does not list (a copy cut short, a file
+dropped in by hand) is refused in one line naming the folder and the file, rather than silently planning with the
+committed weights or an unchecked file. The paper's hopper ships as
 ``drakeslip/hoppers/paper.json`` and is the default everywhere (``paper_hopper()``, ``--hopper paper``).
 """
 from __future__ import annotations
@@ -26,7 +31,7 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from drakeslip.jobs.files import MANIFEST, atomic_write, first_line, manifest_entries, read_json, record_digest, sha256
-from drakeslip.params import SlipParams, check_number
+from drakeslip.params import SlipParams, check_name, check_number
 from drakeslip.units import HopperUnits
 
 HOPPER_FORMAT = "drakeslip-hopper/1"
@@ -65,6 +70,13 @@ class Hopper:
         path = self.folder / name
         return path if path.is_file() else None
 
+    def input_files(self) -> tuple:
+        """The files this hopper was read from: its hopper file, and for a folder its manifest and every file the
+        manifest lists (so that no script writes its output over one, ``drakeslip.jobs.file_args``)."""
+        if self.folder is None:
+            return () if self.source is None else (self.source,)
+        return (self.source, self.folder / MANIFEST, *(self.folder / name for name in manifest_entries(self.folder)))
+
     def to_record(self) -> dict:
         """What results JSON and plan files keep of the hopper: its name, every parameter, and the file's digest."""
         return {"name": self.name, "params": asdict(self.params), "sha256": self.sha256}
@@ -100,9 +112,7 @@ def hopper_from_dict(d, source: str, default_name: str) -> tuple[SlipParams, str
         raise ValueError(f"{source}: unknown field {unknown[0]!r} (the fields are {', '.join(FIELDS)})")
     if "format" in d and d["format"] != HOPPER_FORMAT:
         raise ValueError(f"{source}: format must be {HOPPER_FORMAT!r}, got {d['format']!r}")
-    name = d.get("name", default_name)
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"{source}: name must be a non-empty string, got {name!r}")
+    name = check_name(d.get("name", default_name), f"{source}: name")
     return params_from_fields({k: v for k, v in d.items() if k not in ("format", "name")}, source), name
 
 
@@ -116,6 +126,7 @@ def load_hopper(path) -> Hopper:
         folder, path = path, path / FOLDER_FILE
         if not path.is_file():
             raise ValueError(f"hopper folder {folder} has no {FOLDER_FILE}")
+        check_folder_files(folder)
     elif not path.is_file():
         raise FileNotFoundError(f"no such hopper file or folder: {path}")
     source = f"hopper file {path}"
@@ -138,6 +149,23 @@ def load_hopper(path) -> Hopper:
     return Hopper(params, name, digest, path, folder)
 
 
+def check_folder_files(folder: Path) -> None:
+    """ValueError in one line unless ``folder``'s manifest exists, every file it lists is there, and it lists every
+    weights file (``*.pt``) there (see the module doc)."""
+    if not (folder / MANIFEST).is_file():
+        raise ValueError(f"hopper folder {folder} has no {MANIFEST} manifest, so which weights it should hold cannot "
+                         f"be told: give its {FOLDER_FILE} instead, or make the folder with examples/train_hopper.py")
+    listed = manifest_entries(folder)
+    missing = sorted(name for name in listed if not (folder / name).is_file())
+    if missing:
+        raise ValueError(f"hopper folder {folder}: {missing[0]}, listed in its {MANIFEST}, is missing (rerun "
+                         f"examples/train_hopper.py to write it, or give the folder's {FOLDER_FILE} instead)")
+    unlisted = sorted(path.name for path in folder.glob("*.pt") if path.name not in listed)
+    if unlisted:
+        raise ValueError(f"hopper folder {folder}: {unlisted[0]} is not listed in its {MANIFEST}, so it cannot be "
+                         f"checked (rerun examples/train_hopper.py to finish the folder, or remove the file)")
+
+
 def hopper_document(hopper: Hopper) -> dict:
     """The JSON document ``save_hopper`` writes: the format, the name and every parameter."""
     return {"format": HOPPER_FORMAT, "name": hopper.name, **asdict(hopper.params)}
@@ -146,7 +174,7 @@ def hopper_document(hopper: Hopper) -> dict:
 def save_hopper(hopper: Hopper, path) -> Hopper:
     """Write ``hopper`` as a JSON hopper file, atomically, and return it as read back from ``path``. ``path`` is a
     file name ending in .json, or an existing folder, which gets ``hopper.json`` (and its manifest entry, when it
-    has a manifest)."""
+    has a manifest; without one it is no hopper folder, and the file comes back as a lone hopper file)."""
     path = Path(path)
     if path.is_dir():
         file = path / FOLDER_FILE
@@ -158,7 +186,7 @@ def save_hopper(hopper: Hopper, path) -> Hopper:
         json.dump(hopper_document(hopper), f, indent=2)
         f.write("\n")
     record_digest(file)
-    return load_hopper(path)
+    return load_hopper(path if path.is_file() or (path / MANIFEST).is_file() else file)
 
 
 def make_hopper_folder(hopper: Hopper, folder) -> Hopper:
@@ -185,8 +213,7 @@ def hopper_from_record(record, where: str) -> Hopper:
         if key not in record:
             raise ValueError(f"{where} is missing the field {key!r}")
     name, params, digest = record["name"], record["params"], record.get("sha256")
-    if not isinstance(name, str) or not name.strip():
-        raise ValueError(f"{where}.name must be a non-empty string, got {name!r}")
+    check_name(name, f"{where}.name")
     if digest is not None and not isinstance(digest, str):
         raise ValueError(f"{where}.sha256 must be a string or null, got {digest!r}")
     if not isinstance(params, dict):

@@ -33,8 +33,9 @@ def check_number(value, name: str, positive: bool = False, bound: Bound | None =
 
 def shown(value) -> str:
     """``repr(value)``, cut short when long (a 400-digit integer), for an error message of one line."""
-    text = repr(value.item() if isinstance(value, np.generic) else value)
-    return text if len(text) <= 40 else f"{text[:16]}... ({len(text)} characters)"
+    value = value.item() if isinstance(value, np.generic) else value
+    text = repr(value)
+    return text if len(text) <= 40 else f"{text[:16]}... ({len(value if isinstance(value, str) else text)} characters)"
 
 
 def check_count(value, name: str, low: int = 1) -> int:
@@ -42,6 +43,20 @@ def check_count(value, name: str, low: int = 1) -> int:
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < low:
         raise ValueError(f"{name} must be an integer of at least {low}, got {shown(value)}")
     return int(value)
+
+
+NAME_LENGTH = 100   # a name (a hopper's, a suite's, a case's id) is echoed in messages and tables, and names files
+
+
+def check_name(value, name: str) -> str:
+    """``value`` if it is a name: a string of 1 to NAME_LENGTH printable characters, not all spaces, with no / or
+    \\ (names become file names: OUT/results-SUITE.json, OUT/HOPPER-FAMILY.json); else ValueError naming ``name``,
+    the value shortened and its control characters escaped."""
+    if not isinstance(value, str) or not value.strip() or len(value) > NAME_LENGTH or not value.isprintable() \
+            or "/" in value or "\\" in value:
+        raise ValueError(f"{name} must be a string of 1 to {NAME_LENGTH} printable characters, no / or \\, got "
+                         f"{shown(value)}")
+    return value
 
 
 @dataclass(frozen=True)

@@ -77,7 +77,9 @@ def test_save_and_load_round_trip_to_the_bit(tmp_path):
     ({**BIG, "stroke": 0.4, "min_leg_length": 0.4}, "give stroke or min_leg_length, not both"),
     ({**BIG, "stroke": 1.0}, "stroke must be a fraction of the leg in \\(0, 1\\)"),
     ({**BIG, "min_leg_length": 0.7}, "min_leg_length must lie in \\(0, leg_length=0.7\\)"),
-    ({**BIG, "name": ""}, "name must be a non-empty string"),
+    ({**BIG, "name": ""}, "name must be a string of 1 to 100 printable characters"),
+    ({**BIG, "name": "a\x1b[2Jb"}, r"printable characters, no / or \\, got .a\\x1b\[2Jb."),   # escaped, not sent
+    ({**BIG, "name": "x" * 101}, r"got .xxxxxxxxxxxxxxx\.\.\. \(101 characters\)"),
     ({**BIG, "format": "drakeslip-hopper/9"}, "format must be 'drakeslip-hopper/1'"),
     ([12, 0.7, 6000], "must hold a table of fields"),
 ])

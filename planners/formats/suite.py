@@ -12,7 +12,7 @@ from drakeslip import ApexState, Terrain
 from drakeslip.hopper_file import Hopper, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
-from drakeslip.params import check_number
+from drakeslip.params import check_name, check_number
 from drakeslip.state import APEX_BOUNDS
 from drakeslip.terrain import DITCH_HEIGHT, family as terrain_family
 
@@ -100,9 +100,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     fmt = required_field(d, "format", source)
     if fmt != SUITE_FORMAT:
         raise ValueError(f"{source}: format must be {SUITE_FORMAT!r}, got {fmt!r}")
-    name = required_field(d, "name", source)
-    if not isinstance(name, str):
-        raise ValueError(f"{source}: name must be a string, got {name!r}")
+    name = check_name(required_field(d, "name", source), f"{source}: name")
     goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
     hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
@@ -112,9 +110,9 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     cases, ids = [], set()
     for i, c in enumerate(raw_cases):
         where = f"{source}: cases[{i}]"
-        case_id = required_field(c, "id", where)
-        if not isinstance(case_id, str) or case_id in ids:
-            raise ValueError(f"{where}.id must be a unique string, got {case_id!r}")
+        case_id = check_name(required_field(c, "id", where), f"{where}.id")
+        if case_id in ids:
+            raise ValueError(f"{where}.id must be unique, got {case_id!r} again")
         ids.add(case_id)
         t = required_field(c, "terrain", where)
         x0 = check_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0", bound=TERRAIN_START)
