@@ -1,6 +1,8 @@
 """drakeslip: a SLIP hopper on uneven terrain, as a Drake hybrid system with a fast step map.
 
-The names below load their module on first use, so ``import drakeslip`` does not start pydrake, numba or torch.
+The names below load their module on first use, so ``import drakeslip`` (and so every ``drakeslip.x`` import) loads
+nothing heavy, not even numpy: a script imports ``drakeslip.jobs.cli`` first, which makes Ctrl-C one line from there
+on, before the libraries load.
 """
 from pathlib import Path
 
@@ -8,11 +10,10 @@ from drakeslip.compiled_cache import clear_when_sources_change
 
 clear_when_sources_change(Path(__file__).parent, [Path(__file__).parent])  # before any compiled function loads
 
-from drakeslip.params import SlipParams  # noqa: E402
-from drakeslip.state import ApexState, FailureMode, StepResult  # noqa: E402
-from drakeslip.terrain import TERRAIN_FAMILIES, Terrain, ditch_world, mixed_world, step_world  # noqa: E402
-
 _LAZY = {
+    "SlipParams": "drakeslip.params", "ApexState": "drakeslip.state", "FailureMode": "drakeslip.state",
+    "StepResult": "drakeslip.state", "TERRAIN_FAMILIES": "drakeslip.terrain", "Terrain": "drakeslip.terrain",
+    "ditch_world": "drakeslip.terrain", "mixed_world": "drakeslip.terrain", "step_world": "drakeslip.terrain",
     "step": "drakeslip.stepmap", "step_batch": "drakeslip.stepmap", "BatchStepResult": "drakeslip.stepmap",
     "SlipHopper": "drakeslip.hopper", "simulate": "drakeslip.simulation", "SimulationResult": "drakeslip.simulation",
     "StepLengthController": "drakeslip.controller",

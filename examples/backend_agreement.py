@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 
 
 def main(argv=None) -> int:

@@ -11,8 +11,8 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from drakeslip.jobs import cli
+from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 
 N_ANGLES = 30  # the batch: this many leg angles from each apex, as a planner expands a node
 

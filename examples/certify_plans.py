@@ -34,7 +34,8 @@ def main(argv=None) -> int:
     cli.add_hopper(ap, default="the suite's")
     ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")
     ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE, help="foothold and apex tolerance [m, m/s]")
-    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON")
+    ap.add_argument("--out", type=cli.output_file(".json", beside=(".cases.jsonl",)), required=True,
+                    help="results JSON")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
     args = ap.parse_args(argv)

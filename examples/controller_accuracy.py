@@ -18,11 +18,12 @@ from __future__ import annotations
 import math
 import sys
 
+from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+
 import numpy as np
 
 from drakeslip import SlipParams, Terrain, step_world
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
-from drakeslip.jobs import cli
 
 N_STEPPED = 10  # stepped terrain: step_world seeds 0..9, the samples spread over them
 

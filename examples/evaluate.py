@@ -48,7 +48,8 @@ def main(argv=None) -> int:
     ap.add_argument("--every", type=cli.positive_int, default=1,
                     help="every K-th case (suites list 10 starts per terrain: K = 7 or 13 spreads a few cases over "
                          "the terrains and starts)")
-    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
+    ap.add_argument("--out", type=cli.output_file(".json", beside=(".cases.jsonl",)), required=True,
+                    help="results JSON (written atomically)")
     ap.add_argument("--options", default="{}",
                     help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
     cli.add_hopper(ap, default="the suite's")

@@ -17,11 +17,12 @@ from __future__ import annotations
 import math
 import sys
 
+from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+
 import numpy as np
 
 import drakeslip as ds
 from drakeslip.bounds import POSITION, SPEED
-from drakeslip.jobs import cli
 
 N_ANGLES = 41  # lookahead grid over +-atan(mu)
 SURVIVAL_WEIGHT = 0.5  # preference for angles whose next apex leaves many safe choices

@@ -15,10 +15,11 @@ planner made at an apex. Add your own systems (an estimator, a logger, a visuali
 """
 from __future__ import annotations
 
-import argparse
 import sys
 
-OK, FAILED = 0, 1
+from drakeslip.jobs import cli
+
+OK, FAILED = cli.OK, cli.FAILED
 
 
 def two_ditches():
@@ -93,11 +94,12 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
-                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--planner", default="step@robust", help="a registered planner label")
-    ap.add_argument("--goal", type=float, default=4.0, help="goal x [m] (ditches at 1.5-1.9 and 3.0-3.4 m)")
-    ap.add_argument("--html", default=None, help="also write a Meshcat replay of the run here (.html)")
+    ap.add_argument("--goal", type=cli.number(2.0, 8.0), default=4.0,
+                    help="goal x [m] (ditches at 1.5-1.9 and 3.0-3.4 m)")
+    ap.add_argument("--html", type=cli.output_file(".html"), default=None,
+                    help="also write a Meshcat replay of the run here (.html)")
     args = ap.parse_args(argv)
     import planners
 
@@ -105,8 +107,6 @@ def main(argv=None) -> int:
         planners.registry.check_label(args.planner)
     except ValueError as error:
         ap.error(str(error))
-    if not 2.0 <= args.goal <= 8.0:
-        ap.error(f"--goal must lie in [2, 8] m, got {args.goal}")
     meshcat = None
     if args.html:
         from pydrake.geometry import Meshcat

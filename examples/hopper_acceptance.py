@@ -45,6 +45,8 @@ def main(argv=None) -> int:
 
     hoppers = ([args.hopper] if args.hopper
                else random_hoppers(args.seed, args.hoppers, corners=not args.no_corners))
+    ap.check_outputs(args, [("--out", args.out / f"{h.name}-{family}.json{cache}") for h in hoppers
+                            for family in ("ditch", *families) for cache in ("", ".cases.jsonl")])
     args.out.mkdir(parents=True, exist_ok=True)
     rows = ["| hopper | family | planner | success % | ODE calls / plan | bar | holds |", "|---|---|---|---|---|---|---|"]
     ok = True

@@ -39,10 +39,11 @@ import os
 import sys
 from collections import Counter
 
+from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+
 import numpy as np
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.jobs import cli
 from planners.checkpoints import PAPER_WEIGHTS
 
 DIAGNOSTICS = ("1", "2", "3", "4", "5")

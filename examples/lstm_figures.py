@@ -14,10 +14,11 @@ from __future__ import annotations
 
 import sys
 
+from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, TERRAIN_FAMILIES
-from drakeslip.jobs import cli
 from planners.checkpoints import PAPER_WEIGHTS
 
 FIGURES = ("fig1_lstm_steps.png", "fig3_second_step.png")

@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import sys
 
-from drakeslip.bounds import POSITION, SPEED
 from drakeslip.jobs import cli
+from drakeslip.bounds import POSITION, SPEED
 from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
 

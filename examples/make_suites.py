@@ -26,9 +26,9 @@ import argparse
 import sys
 from pathlib import Path
 
+from drakeslip.jobs import cli
 from drakeslip.bounds import POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
-from drakeslip.jobs import cli
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
 
 
@@ -69,8 +69,9 @@ def main(argv=None) -> int:
         suite = suite_from_terrains(args.terrains, args.hopper, args.speeds, args.heights, args.start_x, args.goal)
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    cli.announce(argv)
     path = args.out / f"{suite.name}.json"
+    ap.check_outputs(args, [("--out", path)])
+    cli.announce(argv)
     save_suite(suite, path)
     print(f"wrote {path}: {len(suite.cases)} cases, start x = {suite.cases[0].apex.x:g}, goal x = {suite.goal_x:g}")
     return cli.OK
@@ -95,6 +96,10 @@ def draw(ap, args, argv) -> int:
     if args.seed is None and not set(args.families) <= set(COMMITTED_SEEDS):
         ap.error(f"--families {sorted(set(args.families) - set(COMMITTED_SEEDS))} have no committed suite; "
                  "give --seed")
+    seeds = {family: COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
+             for k, family in enumerate(args.families)}
+    names = {family: family if args.seed is None else f"{family}-{seed}" for family, seed in seeds.items()}
+    ap.check_outputs(args, [("--out", args.out / f"{name}.json") for name in names.values()])
     try:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
@@ -104,10 +109,9 @@ def draw(ap, args, argv) -> int:
     from planners.formats.suite import save_suite
     from planners.formats.suite_draw import draw_suite
 
-    for k, family in enumerate(args.families):
-        seed = COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
+    for family, seed in seeds.items():
         suite = draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
-                           heights=args.heights, name=family if args.seed is None else f"{family}-{seed}")
+                           heights=args.heights, name=names[family])
         path = args.out / f"{suite.name}.json"
         save_suite(suite, path)
         print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")

@@ -33,7 +33,8 @@ from verification.model_check import DEFAULT_BUDGET
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite JSON file (format drakeslip-suite/1)")
-    ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="results JSON (written atomically)")
+    ap.add_argument("--out", type=cli.output_file(".json", beside=(".cases.jsonl",)), required=True,
+                    help="results JSON (written atomically)")
     ap.add_argument("--cases", type=cli.positive_int, default=None,
                     help="only N cases: the first N, or N at random with --seed")
     ap.add_argument("--seed", type=cli.non_negative_int, default=None, help="draw the --cases at random with this seed")

@@ -13,7 +13,9 @@ import argparse
 import sys
 import time
 
-OK, FAILED = 0, 1
+from drakeslip.jobs import cli
+
+OK, FAILED = cli.OK, cli.FAILED
 SETTLING_HOPS = 5   # the hops from the start (body level at an apex already at speed) to the gait's own rhythm
 
 
@@ -34,8 +36,7 @@ def _hops(text: str) -> int:
 
 
 def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
-                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--speeds", type=_speeds, default="0,1,2,3", help="forward speeds [m/s], comma-separated")
     ap.add_argument("--hops", type=_hops, default=100, help="hops at each speed")
     args = ap.parse_args(argv)

@@ -62,11 +62,16 @@ def markdown(results: dict, family: str | None) -> str:
     return "\n".join(rows)
 
 
+def suite_files(text: str) -> list:
+    """An argument type: comma-separated suite files, each one that exists."""
+    return [cli.input_file(name) for name in cli.names(text)]
+
+
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--ditch", type=cli.input_file, default="suites/ditch.json", help="Table II's suite")
     ap.add_argument("--step", type=cli.input_file, default="suites/step.json", help="Table III's suite")
-    ap.add_argument("--extra", type=cli.names, default=[], help="further suites, comma-separated (no paper numbers)")
+    ap.add_argument("--extra", type=suite_files, default=[], help="further suites, comma-separated (no paper numbers)")
     ap.add_argument("--planners", type=cli.names, default=",".join(PLANNERS), help="planner labels, comma-separated")
     ap.add_argument("--cases", type=cli.positive_int, default=None, help="only the first N cases of each suite")
     ap.add_argument("--backend", default="drake", choices=("drake", "fast"), help="what executes the plans")
@@ -88,7 +93,7 @@ def main(argv=None) -> int:
     try:  # an unknown planner, a bad option or a malformed suite is refused before any suite runs
         specs = {check_label(label): None for label in args.planners}
         prepare(worker_setup(specs))
-        paths = [("ditch", args.ditch), ("step", args.step)] + [(None, cli.input_file(p)) for p in args.extra]
+        paths = [("ditch", args.ditch), ("step", args.step)] + [(None, path) for path in args.extra]
         suites = [(family, load_suite(path)) for family, path in paths]
     except (OSError, ValueError) as error:
         ap.error(str(error))
@@ -96,6 +101,8 @@ def main(argv=None) -> int:
     if len(set(names)) < len(names):  # each suite's results go to OUT/results-NAME.json
         ap.error(f"two suites are named {max(names, key=names.count)!r}: their results files would overwrite each "
                  "other; give suites with different names")
+    results_files = [Path(args.out) / f"results-{name}.json" for name in names]
+    ap.check_outputs(args, [("--out", path) for out in results_files for path in (out, f"{out}.cases.jsonl")])
     cli.announce(argv)
     command = "python3 examples/paper_tables.py " + " ".join(shlex.quote(a) for a in (argv or sys.argv[1:]))
     sections = [f"Made by `{command}`; execution on the {args.backend} backend."]

@@ -27,8 +27,8 @@ from __future__ import annotations
 import sys
 from dataclasses import asdict
 
-from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.jobs import cli
+from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite_draw import DEMO_COURSE, DEMO_HEIGHT, DEMO_SPEED
 from planners.closed_loop import EXECUTED_PER_PLAN

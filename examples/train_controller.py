@@ -14,10 +14,10 @@ import sys
 import time
 from dataclasses import replace
 
+from drakeslip.jobs import cli
 from drakeslip.controller import DEFAULT_WEIGHTS, ControllerConfig
 from drakeslip.controller_training import DataConfig, TrainConfig
 from drakeslip.devices import DEVICE_HELP, torch_device
-from drakeslip.jobs import cli
 
 
 def main(argv=None) -> int:

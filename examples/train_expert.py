@@ -31,8 +31,8 @@ import sys
 import time
 from pathlib import Path
 
-from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
+from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
 from drakeslip.jobs.steps import end_by_sigint, run_step, shown
 from planners.checkpoints import EXPERT_WEIGHTS

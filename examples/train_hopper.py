@@ -38,9 +38,9 @@ import sys
 import time
 from pathlib import Path
 
-from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
-from drakeslip.jobs.files import atomic_write, read_json, record_digest
+from drakeslip.devices import DEVICE_HELP, torch_device
+from drakeslip.jobs.files import MANIFEST, atomic_write, read_json, record_digest
 from drakeslip.jobs.steps import end_by_sigint, run_step, shown
 from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS
 
@@ -137,6 +137,10 @@ def main(argv=None) -> int:
         ap.error(f"--device: {error}")
     if args.executor == "local" and args.address is not None:
         ap.error("--address is for --executor ray")
+    from drakeslip.hopper_file import FOLDER_FILE
+
+    ap.check_outputs(args, [("--out", args.out / name) for name in (FOLDER_FILE, MANIFEST, EXPERT_WEIGHTS.name,
+                                                                    RANKER_WEIGHTS.name)])
     commands = step_commands(args, device)
     if args.dry_run:
         print("\n".join(shown(command) for command in commands.values()))

@@ -18,8 +18,8 @@ import os
 import sys
 import time
 
-from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs import cli
+from drakeslip.devices import DEVICE_HELP, torch_device
 from planners.learned.config import ModelConfig
 from planners.learned.training.config import TrainConfig
 
@@ -44,9 +44,9 @@ def dataset_spec(text: str) -> str:
     return text
 
 
-def checkpoint_file(text: str) -> str:
+def checkpoint_file(text: str):
     """An argument type: a .pt file to write, or '' for none."""
-    return "" if text == "" else str(cli.output_file(".pt")(text))
+    return "" if text == "" else cli.output_file(".pt")(text)
 
 
 def main(argv=None) -> int:
@@ -95,7 +95,7 @@ def main(argv=None) -> int:
             ap.error(f"--init: {error}")
     if args.threads:
         torch.set_num_threads(args.threads)
-    cfg = TrainConfig(data=args.data, out=str(args.out), checkpoint=args.checkpoint, epochs=args.epochs,
+    cfg = TrainConfig(data=args.data, out=str(args.out), checkpoint=str(args.checkpoint), epochs=args.epochs,
                       batch_size=args.batch_size, lr=args.lr, own_inputs=args.own_inputs, seed=args.seed,
                       device=device, max_sequences=args.max_sequences, viable_weight=args.viable_weight,
                       init=str(args.init) if args.init else "")

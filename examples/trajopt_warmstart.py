@@ -74,7 +74,7 @@ def parser() -> cli.ArgumentParser:
     ap.add_argument("--options", default="{}",
                     help="options for the seeds' planners as JSON keyed by seed label, e.g. "
                          '\'{"lstm-guided@lazy": {"lazy": true}}\'')
-    ap.add_argument("--out", required=True, type=cli.output_file(".json"),
+    ap.add_argument("--out", required=True, type=cli.output_file(".json", beside=(".cases.jsonl",)),
                     help="results JSON (written atomically); the solves are stored beside it in OUT.cases.jsonl")
     ap.add_argument("--knots", type=cli.integer(2), default=TrajoptConfig.knots,
                     help="stance knots per hop minus one")

@@ -1,24 +1,32 @@
 """What every script of the toolkit shares: argument types that reject bad values up front, the flags that mean
 the same everywhere, and the exit codes.
 
-Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop); 2 a usage or input
-error, reported in one line before any work starts. Ctrl-C (SIGINT) ends a script with one line on stderr saying
-what it saved (``interrupted``) and no worker process left behind; the process then ends by SIGINT, as an
-interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops a script that runs it. Heavy
-libraries (torch, pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast.
+Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop), or a file that could
+not be written or read once the work started (a full disk: ``OSError``); 2 a usage or input error, reported in one
+line before any work starts. Importing this module makes two errors one line on stderr instead of a traceback, for
+the rest of the script: Ctrl-C (SIGINT) says what was saved (``interrupted``), leaves no worker process behind and
+ends the process by SIGINT, as an interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops
+a script that runs it; an ``OSError`` (no space left on the device, a file that cannot be written) names the file
+and the reason, says what was saved, and ends with status 1: the command was right, the run could not finish, and
+the same command resumes it once the cause is fixed (every result file is written atomically, so none is left half
+written). Every script imports this module before anything else of the toolkit, so that holds from its first
+statement; ``import drakeslip`` loads nothing heavy. Heavy libraries (torch, pydrake, matplotlib, ray) are not
+imported here, so a script's ``--help`` is fast. An argument that names an output file which is an input of another
+argument (or another output) is refused in one line (``drakeslip.jobs.file_args``).
 """
 from __future__ import annotations
 
 import argparse
+import errno
 import math
-import os
 import shlex
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 from drakeslip.bounds import Bound
 from drakeslip.jobs.executors import make_executor
+from drakeslip.jobs.file_args import TerrainFile, clash, input_file, output_file, output_folder  # noqa: F401
+from drakeslip.jobs.files import printable
 from drakeslip.jobs.runner import saved_so_far
 
 OK, FAILED, USAGE = 0, 1, 2
@@ -34,35 +42,66 @@ class Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionH
 
 
 class ArgumentParser(argparse.ArgumentParser):
-    """An argparse parser whose errors are one line on stderr and exit status 2. A flag must be spelled out in
-    full (``--seed`` is not taken for ``--seeds``)."""
+    """An argparse parser whose errors are one line on stderr and exit status 2, with the text it echoes shortened
+    and its control characters escaped (``printable``). A flag must be spelled out in full (``--seed`` is not taken
+    for ``--seeds``). Parsing refuses an output file that is an input file of another argument, or another output
+    (``file_args.clash``)."""
 
     def __init__(self, description: str | None = None, **kwargs):
         super().__init__(description=description, formatter_class=Formatter, allow_abbrev=False, **kwargs)
-        report_interrupts()
 
     def error(self, message: str):
-        self.exit(USAGE, f"{self.prog}: error: {message}\n")
+        self.exit(USAGE, f"{printable(self.prog)}: error: {printable(message)}\n")
+
+    def parse_args(self, args=None, namespace=None):
+        parsed = super().parse_args(args, namespace)
+        self.check_outputs(parsed)
+        return parsed
+
+    def check_outputs(self, args, extra_outputs=()) -> None:
+        """Refuse (exit 2, one line) an output of ``args`` or of ``extra_outputs`` ((option, path) of the files the
+        script writes into an output folder) that is an input file of another argument or another output."""
+        usage = self.format_usage()
+        option = lambda dest: f"--{dest.replace('_', '-')}" if f"--{dest.replace('_', '-')}" in usage else dest
+        problem = clash({option(dest): value for dest, value in vars(args).items()}, extra_outputs)
+        if problem:
+            self.error(problem)
 
 
-def report_interrupts() -> None:
-    """Make Ctrl-C end this script in one line on stderr instead of a traceback: what the job runner saved
-    (``drakeslip.jobs.runner.saved_so_far``) and how to resume, or that nothing was cached. Every script's parser
-    calls it; other exceptions keep the hook they had."""
-    if getattr(sys.excepthook, "reports_interrupts", False):
+def report_errors() -> None:
+    """Make Ctrl-C and an ``OSError`` end this script in one line on stderr instead of a traceback (see the module
+    doc): what the job runner saved (``drakeslip.jobs.runner.saved_so_far``) and how to resume. Importing this
+    module calls it; other exceptions keep the hook they had."""
+    if getattr(sys.excepthook, "reports_errors", False):
         return
     previous = sys.excepthook
 
     def hook(kind, error, trace):
-        if not issubclass(kind, KeyboardInterrupt):
+        if issubclass(kind, KeyboardInterrupt):
+            saved = saved_so_far()
+            what = f"{saved}; rerun the same command to resume" if saved else "no results were cached"
+            line = f"interrupted: {what}"
+        elif issubclass(kind, OSError):
+            saved = saved_so_far()
+            line = f"error: {os_error(error)}" + (f"; {saved}; rerun the same command to resume" if saved else "")
+        else:
             return previous(kind, error, trace)
-        saved = saved_so_far()
-        what = f"{saved}; rerun the same command to resume" if saved else "no results were cached"
-        sys.stderr.write(f"{Path(sys.argv[0]).name}: interrupted: {what}\n")
+        sys.stderr.write(f"{printable(Path(sys.argv[0]).name)}: {printable(line)}\n")
         sys.stderr.flush()
 
-    hook.reports_interrupts = True
+    hook.reports_errors = True
     sys.excepthook = hook
+
+
+def os_error(error: OSError) -> str:
+    """'FILE: No space left on device (ENOSPC)', or the reason alone when the error names no file (standard output
+    on a full device)."""
+    code = f" ({errno.errorcode[error.errno]})" if error.errno in errno.errorcode else ""
+    why = f"{error.strerror}{code}" if error.strerror else str(error)
+    return why if error.filename is None else f"{error.filename}: {why}"
+
+
+report_errors()
 
 
 def integer(low: int | None = None, high: int | None = None):
@@ -138,49 +177,6 @@ def names(text: str) -> list[str]:
     return items
 
 
-def input_file(text: str) -> Path:
-    """An argument type: a file that exists."""
-    path = Path(text)
-    if not path.is_file():
-        raise argparse.ArgumentTypeError(f"no such file: {text!r}")
-    return path
-
-
-def output_file(*extensions: str):
-    """An argument type: a path a file can be written to, ending in one of ``extensions`` (any if none): not an
-    existing folder, and not inside something that is a file."""
-    def parse(text: str) -> Path:
-        path = Path(text)
-        if extensions and path.suffix.lower() not in extensions:
-            raise argparse.ArgumentTypeError(f"must end in {' or '.join(extensions)}, got {text!r}")
-        if path.is_dir():
-            raise argparse.ArgumentTypeError(f"{text!r} is a folder; give a file name")
-        check_writable_folder(text, path.parents, "write")
-        return path
-    return parse
-
-
-def output_folder(text: str) -> Path:
-    """An argument type: a folder that exists or can be made: not a file, not inside a file, writable."""
-    path = Path(text)
-    if path.exists() and not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text!r} is a file, not a folder")
-    check_writable_folder(text, (path, *path.parents), "make")
-    return path
-
-
-def check_writable_folder(text: str, folders, verb: str) -> None:
-    """The first of ``folders`` (a path's parents, nearest first) that exists is a folder this process can write
-    in (and enter); else ArgumentTypeError "cannot VERB TEXT: ..."."""
-    for folder in folders:
-        if folder.exists():
-            if not folder.is_dir():
-                raise argparse.ArgumentTypeError(f"cannot {verb} {text!r}: {str(folder)!r} is a file")
-            if not os.access(folder, os.W_OK | os.X_OK):
-                raise argparse.ArgumentTypeError(f"cannot {verb} {text!r}: {str(folder)!r} is not writable")
-            return
-
-
 def add_hopper(ap: argparse.ArgumentParser, default: str = "the paper's") -> None:
     """``--hopper``: a hopper file, a hopper folder or a packaged hopper's name, read up front
     (``drakeslip.hopper_file.hopper_argument``: a bad one is one line, exit status 2); None when not given."""
@@ -191,14 +187,6 @@ def add_hopper(ap: argparse.ArgumentParser, default: str = "the paper's") -> Non
                          "drakeslip/hopper_file.py), a hopper folder (examples/train_hopper.py: the file and the "
                          f"weights trained for it), or a packaged hopper ({', '.join(packaged_hoppers())}) "
                          f"(default: {default})")
-
-
-@dataclass(frozen=True)
-class TerrainFile:
-    """A terrain read from a file (``terrain_or_family``): its path and its Terrain."""
-
-    path: Path
-    terrain: object
 
 
 def terrain_or_family(*families: str):
@@ -232,7 +220,7 @@ def add_parallel(ap: argparse.ArgumentParser, jobs: int = 1) -> None:
 def executor(args):
     """The executor ``add_parallel``'s flags ask for."""
     if args.executor == "local" and args.address is not None:
-        sys.stderr.write(f"{Path(sys.argv[0]).name}: error: --address is for --executor ray\n")
+        sys.stderr.write(f"{printable(Path(sys.argv[0]).name)}: error: --address is for --executor ray\n")
         raise SystemExit(USAGE)
     return make_executor(args.executor, args.jobs, args.address)
 

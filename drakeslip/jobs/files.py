@@ -15,7 +15,8 @@ MANIFEST = "SHA256SUMS"  # beside committed weights: "<sha256>  <file name>" lin
 @contextmanager
 def atomic_write(path, mode: str = "wb"):
     """Yield a file open on a unique temporary name beside ``path``; when the block succeeds the file replaces
-    ``path`` in one rename, when it fails the temporary file is removed and ``path`` is untouched."""
+    ``path`` in one rename, when it fails the temporary file is removed and ``path`` is untouched. A write that
+    fails (a full disk) raises its OSError naming ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name + ".", suffix=".tmp")
@@ -24,10 +25,10 @@ def atomic_write(path, mode: str = "wb"):
         with os.fdopen(fd, mode) as f:
             yield f
         os.replace(tmp, path)
-    except BaseException:
+    except BaseException as error:
         if os.path.exists(tmp):
             os.unlink(tmp)
-        raise
+        raise naming(error, path)
 
 
 def _umask() -> int:
@@ -98,10 +99,21 @@ def open_jsonl_cache(path):
 
 
 def append_jsonl(sink, entry) -> None:
-    """Append one entry to an open JSON-lines cache and make it durable before going on."""
-    sink.write(json.dumps(entry) + "\n")
-    sink.flush()
-    os.fsync(sink.fileno())
+    """Append one entry to an open JSON-lines cache and make it durable before going on; a write that fails (a full
+    disk) raises its OSError naming the cache (a line it cut short is skipped when the cache is read)."""
+    try:
+        sink.write(json.dumps(entry) + "\n")
+        sink.flush()
+        os.fsync(sink.fileno())
+    except OSError as error:
+        raise naming(error, sink.name)
+
+
+def naming(error: BaseException, path) -> BaseException:
+    """``error``, or for an OSError of a write that names no file (a full disk), the same error naming ``path``."""
+    if isinstance(error, OSError) and error.filename is None and error.errno is not None:
+        return OSError(error.errno, error.strerror, str(path))
+    return error
 
 
 def sha256(path) -> str:
@@ -167,6 +179,18 @@ def first_line(error: BaseException) -> str:
     """An exception's message cut to its first line (torch's loader explains itself over a dozen lines)."""
     text = str(error).strip()
     return text.splitlines()[0] if text else type(error).__name__
+
+
+MESSAGE_LIMIT = 1000   # characters of a message line: a few paths and values, never a whole file echoed back
+
+
+def printable(text: str, limit: int = MESSAGE_LIMIT) -> str:
+    """``text`` fit for one line of a terminal: cut to ``limit`` characters (saying how many it had), every
+    character that is not printable (a newline, an escape sequence, a NUL) written as its escape, ``\\x1b``."""
+    text = str(text)
+    if len(text) > limit:
+        text = f"{text[:limit]}... ({len(text)} characters)"
+    return "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
 
 
 def record_digest(path) -> None:

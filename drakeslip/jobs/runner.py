@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 from drakeslip.jobs.executors import InProcess
-from drakeslip.jobs.files import append_jsonl, atomic_write, open_jsonl_cache, read_jsonl_cache
+from drakeslip.jobs.files import append_jsonl, atomic_write, open_jsonl_cache, printable, read_jsonl_cache
 
 
 class JsonLinesStore:
@@ -141,8 +141,9 @@ def report_store(store, reused: int, total: int) -> None:
     if skipped:
         (line, why), n = skipped[0], len(skipped)
         lines = "1 damaged line" if n == 1 else f"{n} damaged lines"
-        print(f"warning: cache {store.where}: {lines} skipped (line {line}: {why}); "
-              f"{'its result is' if n == 1 else 'their results are'} computed again", file=sys.stderr, flush=True)
+        print(printable(f"warning: cache {store.where}: {lines} skipped (line {line}: {why}); "
+                        f"{'its result is' if n == 1 else 'their results are'} computed again"),
+              file=sys.stderr, flush=True)
 
 
 def saved_so_far() -> str | None:
