@@ -186,7 +186,7 @@ def main(argv=None) -> int:
 
     from tqdm import tqdm
 
-    from drakeslip.jobs.runner import JsonLinesStore, remove, run, write_json
+    from drakeslip.jobs.runner import JsonLinesStore, has_fields, remove, run, write_json
     from drakeslip.units import units_of
     from planners.trajopt.planner import make_problem
     from planners.trajopt.solve import optimize
@@ -215,7 +215,7 @@ def main(argv=None) -> int:
              for k, (s, i) in pairs.items()]
     records = {}
     with tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=suite.name) as bar:
-        for k, result in run(optimize, tasks, JsonLinesStore(store_path, RECORD_FIELDS, code), executor):
+        for k, result in run(optimize, tasks, JsonLinesStore(store_path, has_fields(*RECORD_FIELDS), code), executor):
             s, i = pairs[k]
             records[(s, i)] = {"id": cases[i].id, **result}
             bar.update(1)

@@ -113,7 +113,7 @@ def test_a_cache_with_undecodable_bytes_resumes(tmp_path):
 
 
 def test_a_cached_result_lacking_a_field_is_computed_again_with_a_warning(tmp_path, capsys):
-    from drakeslip.jobs.runner import JsonLinesStore, run
+    from drakeslip.jobs.runner import JsonLinesStore, has_fields, run
 
     path = tmp_path / "cache.jsonl"
     path.write_text('{"key": "a", "result": {"success": true, "x": 1}}\n{"key": "b", "result": {"x": 2}}\n')
@@ -123,13 +123,13 @@ def test_a_cached_result_lacking_a_field_is_computed_again_with_a_warning(tmp_pa
         calls.append(x)
         return {"success": True, "x": x}
 
-    results = dict(run(compute, [("a", (1,)), ("b", (2,))], JsonLinesStore(path, fields=("success",))))
+    results = dict(run(compute, [("a", (1,)), ("b", (2,))], JsonLinesStore(path, has_fields("success"))))
     assert calls == [2] and results == {"a": {"success": True, "x": 1}, "b": {"success": True, "x": 2}}
     out, err = capsys.readouterr()
     assert "1 of 2 results reused" in out
     assert err.splitlines() == [f"warning: cache {path}: 1 damaged line skipped (line 2: no field 'success'); "
                                 "its result is computed again"]
-    assert JsonLinesStore(path, fields=("success",)).get("b") == {"success": True, "x": 2}
+    assert JsonLinesStore(path, has_fields("success")).get("b") == {"success": True, "x": 2}
 
 
 def test_results_of_other_code_are_not_reused(tmp_path, capsys):

@@ -27,6 +27,7 @@ from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.closed_loop import ClosedLoopConfig, run_case
+from planners.formats.case_record import check_case_record
 from planners.formats.suite import Suite, suite_from_dict, terrain_record
 from planners.formats.suite_draw import suite_hopper
 from planners.registry import files_read, make_planners, options_for
@@ -34,7 +35,6 @@ from verification.provenance import code_version, provenance, weights_digests
 from verification.report import summarize
 
 _WORKER: dict = {}
-CASE_FIELDS = ("id", "success", "failure", "final_x", "plans")   # a cached result lacking one is run again
 
 
 def controller_weights(path=None) -> str:
@@ -109,9 +109,9 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``, in
     the closed loop ``config`` describes (one for all, or a dict by label, e.g. for each preset's replanning
     period). Finished cases go to ``cache_path`` (JSON lines) as they complete and are reused when the run is
-    started again with the same code; a damaged cached case (a line cut short, a result lacking one of
-    CASE_FIELDS) is skipped with a warning and run again. ``executor``: where the cases run
-    (``drakeslip.jobs.executors``; default this process)."""
+    started again with the same code; a damaged cached case (a line cut short, a result that is not a case
+    record: a field missing or of the wrong type, ``check_case_record``) is skipped with a warning and run
+    again. ``executor``: where the cases run (``drakeslip.jobs.executors``; default this process)."""
     from tqdm import tqdm
 
     cases = select(suite, n_cases, every)
@@ -129,7 +129,7 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     tasks = [(key, (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
                     suite.goal_x, suite.friction, configs[label], asdict(hopper.params)))
              for key, (label, c) in owner.items()]
-    store = JsonLinesStore(cache_path, CASE_FIELDS, origin["code_version"]) if cache_path else None
+    store = JsonLinesStore(cache_path, check_case_record, origin["code_version"]) if cache_path else None
     done = {label: {} for label in specs}
     with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
         for key, result in run(run_task, tasks, store, executor, setup):

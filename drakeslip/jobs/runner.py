@@ -22,12 +22,13 @@ class JsonLinesStore:
     """Results as JSON lines ``{"key": key, "result": result}`` in one file, appended and made durable one at a
     time. With a ``stamp`` (the code version that makes the results) each line carries it as ``"stamp"`` and only
     the lines of the same stamp are held; the others are counted in ``foreign``. A line cut short by a kill, one
-    that does not decode, or one whose result is not an object with every field of ``fields`` is skipped and
-    listed in ``skipped`` as ``(line number, why)``: its result is computed again."""
+    that does not decode, or one whose result ``check`` refuses (KeyError, TypeError or ValueError: a missing field,
+    a field of the wrong type; ``has_fields`` makes a check of fields present) is skipped and listed in ``skipped``
+    as ``(line number, why)``: its result is computed again."""
 
-    def __init__(self, path, fields=(), stamp: str | None = None):
+    def __init__(self, path, check=None, stamp: str | None = None):
         self.path = self.where = Path(path)
-        self.fields, self.stamp = tuple(fields), stamp
+        self.check, self.stamp = check, stamp
         self.skipped: list = []
         read = read_jsonl_cache(self.path, self._stamped_key, self._checked, self.skipped)
         self._held = {key: result for (ours, key), result in read.items() if ours}
@@ -35,15 +36,18 @@ class JsonLinesStore:
         self._sink = None
 
     def _stamped_key(self, entry) -> tuple:
-        """(whether the line is of this store's stamp, its key)."""
+        """(whether the line is of this store's stamp, its key: a string)."""
+        if not isinstance(entry, dict):
+            raise TypeError(f"the line is {type(entry).__name__}, not an object")
+        if not isinstance(entry["key"], str):
+            raise TypeError(f"key must be a string, got {type(entry['key']).__name__}")
         return self.stamp is None or entry.get("stamp") == self.stamp, entry["key"]
 
     def _checked(self, entry):
-        """The line's result; KeyError naming a field of ``fields`` it lacks."""
+        """The line's result, after ``check``."""
         result = entry["result"]
-        missing = [name for name in self.fields if not isinstance(result, dict) or name not in result]
-        if missing:
-            raise KeyError(missing[0])
+        if self.check is not None:
+            self.check(result)
         return result
 
     def get(self, key):
@@ -52,7 +56,7 @@ class JsonLinesStore:
     def count_saved(self, keys) -> int:
         """How many of ``keys`` have a result of this stamp in the file now (read again: the file is the truth
         when a put was interrupted)."""
-        on_disk = JsonLinesStore(self.path, self.fields, self.stamp)
+        on_disk = JsonLinesStore(self.path, self.check, self.stamp)
         return sum(on_disk.get(key) is not None for key in set(keys))
 
     def put(self, key, result) -> None:
@@ -66,6 +70,16 @@ class JsonLinesStore:
         if self._sink is not None:
             self._sink.close()
             self._sink = None
+
+
+def has_fields(*names: str):
+    """A ``JsonLinesStore`` check: the result is an object with each of ``names`` (KeyError naming the first it
+    lacks)."""
+    def check(result) -> None:
+        for name in names:
+            if not isinstance(result, dict) or name not in result:
+                raise KeyError(name)
+    return check
 
 
 class FileStore:
