@@ -22,6 +22,8 @@ a spread-out sample of the cases:
 The planners plan for the suite's hopper (the paper's when it records none), and the results record it. --hopper (a
 hopper file or folder, examples/train_hopper.py) must be that hopper, whose folder's weights the planners then
 read; a suite drawn for another hopper is refused in one line (examples/make_suites.py --hopper draws one for it).
+--backend multibody runs the paper's hopper only (the robot and its fitted template are built for it); a suite of
+another hopper is refused in one line.
 
 Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite
 value outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs. Ctrl-C
@@ -116,7 +118,12 @@ def main(argv=None) -> int:
     specs = {label: options.get(label) for label in labels}
     try:
         suite = load_suite(args.suite)
-        specs = hopper_specs(specs, hopper_for_suite(suite, args.hopper))
+        hopper = hopper_for_suite(suite, args.hopper)
+        if args.backend == "multibody":
+            from drakeslip.multibody.robot import check_robot_hopper
+
+            check_robot_hopper(hopper, f"suite file {args.suite}")
+        specs = hopper_specs(specs, hopper)
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))

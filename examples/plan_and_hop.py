@@ -79,6 +79,10 @@ def main(argv=None) -> int:
     hopper = args.hopper or paper_hopper()
     try:
         check_label(args.planner)
+        if args.backend == "multibody":
+            from drakeslip.multibody.robot import check_robot_hopper
+
+            check_robot_hopper(hopper, "--hopper")
         ground = args.terrain if isinstance(args.terrain, str) else args.terrain.terrain
         suite = one_case(ground, args.seed, hopper, args.speed, args.height, args.goal, args.start_x)
         params = hopper.params.with_friction(args.friction or hopper.params.friction)

@@ -69,6 +69,10 @@ def main(argv=None) -> int:
         record = load_plan(args.plan)
         if args.hopper is not None:
             check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
+        if args.backend == "multibody":
+            from drakeslip.multibody.robot import check_robot_hopper
+
+            check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
         if args.hops is not None and args.hops > len(record.footholds):
             raise ValueError(f"--hops {args.hops} is more than the plan's {len(record.footholds)} hops")
     except (OSError, ValueError) as error:

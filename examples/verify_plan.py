@@ -61,6 +61,10 @@ def main(argv=None) -> int:
         record = load_plan(args.plan)
         if args.hopper is not None:
             check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
+        if args.backend == "multibody":
+            from drakeslip.multibody.robot import check_robot_hopper
+
+            check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
         if args.terrain is not None:
             record = replace(record, terrain=args.terrain.terrain)
         if args.mode == "angles" and not all(abs(a) < 1.5707963 for a in record.leg_angles):

@@ -116,6 +116,10 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
 
     cases = select(suite, n_cases, every)
     configs = config if isinstance(config, dict) else {label: config for label in specs}
+    if any(c.backend == "multibody" for c in configs.values()):   # the robot is the paper's hopper's only
+        from drakeslip.multibody.robot import check_robot_hopper
+
+        check_robot_hopper(suite_hopper(suite), f"suite {suite.name!r}")
     if {c.refine for c in configs.values()} != {next(iter(configs.values())).refine}:
         raise ValueError("every planner of a run shares the controller: give them all the same refine")
     setup = worker_setup(specs, controller_path, next(iter(configs.values())).refine)

@@ -101,6 +101,21 @@ class RobotParams:
         return cls(slip=SlipParams(**d.pop("slip")), **d)
 
 
+def check_robot_hopper(hopper, what: str) -> None:
+    """ValueError in one line unless ``hopper`` (a ``drakeslip.hopper_file.Hopper``; the friction is the ground's
+    and may differ) is the paper's: the robot's geometry, masses and motors (``RobotParams``' defaults) and the
+    template fitted to it (``drakeslip/multibody/template.json``) are the paper's hopper's, so a run of another
+    hopper on the robot would be a run of a different robot under its name. ``what`` names where the hopper comes
+    from (a suite, a plan file, --hopper)."""
+    from drakeslip.hopper_file import BODY_FIELDS, describe_params, paper_hopper
+
+    paper = paper_hopper()
+    if any(getattr(hopper.params, key) != getattr(paper.params, key) for key in BODY_FIELDS):
+        raise ValueError(f"the multibody robot (drakeslip/multibody) and its fitted template are built for the "
+                         f"paper's hopper ({describe_params(paper.params)}), not for hopper {hopper.name!r} "
+                         f"({describe_params(hopper.params)}) from {what}: run it on another backend")
+
+
 def _set(root, path: str, value) -> None:
     node = root.find(path)
     node.text = repr(float(value)) if not isinstance(value, str) else value
