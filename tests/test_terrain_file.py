@@ -139,3 +139,32 @@ def test_the_argument_type_is_one_line(tmp_path):
         terrain_argument(str(tmp_path / "missing.csv"))
     with pytest.raises(argparse.ArgumentTypeError, match=r"t.csv, line 1: height 'h' is not a number"):
         terrain_argument(str(write(tmp_path, "0,h\n")))
+
+
+def test_resampling_keeps_the_highest_height_and_every_gap_of_the_rows_over_a_cell():
+    """The resampling, at once over every cell, against the rule written out cell by cell."""
+    import numpy as np
+
+    from drakeslip.terrain_file import OVERLAP_TOLERANCE, resample
+
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        xs = np.cumsum(rng.uniform(0.01, 0.3, 40))
+        heights = np.where(rng.random(40) < 0.2, np.nan, rng.normal(0, 0.1, 40))
+        cell = rng.uniform(0.02, 0.5)
+        x_end = xs[-1] + cell
+        got = resample(xs, heights, x_end, cell)
+        for j, value in enumerate(got):
+            lo, hi = xs[0] + j * cell, xs[0] + (j + 1) * cell
+            over = [h for i, h in enumerate(heights) if xs[i] < hi - OVERLAP_TOLERANCE * cell
+                    and (i + 1 == len(xs) or xs[i + 1] > lo + OVERLAP_TOLERANCE * cell)]
+            expected = np.nan if any(np.isnan(over)) else max(over)
+            assert value == expected or (np.isnan(value) and np.isnan(expected)), (j, value, expected)
+
+
+def test_rows_1_mm_apart_far_from_zero_make_1_mm_cells(tmp_path):
+    """x = 9990.000, 9990.001, ...: their differences are off by float rounding (0.000999999998), not their cells."""
+    rows = "".join(f"{9990 + k * 0.001:.3f},{0.02 if k < 500 else 0}\n" for k in range(1001))
+    terrain = load_terrain(write(tmp_path, rows))
+    assert (terrain.cell, terrain.x0, terrain.heights.size) == (0.001, 9990.0, 1001)
+    assert terrain.height_at(9990.25) == 0.02 and terrain.height_at(9990.75) == 0.0
