@@ -6,7 +6,7 @@ on, before the libraries load.
 """
 from pathlib import Path
 
-from drakeslip.compiled_cache import clear_when_sources_change
+from drakeslip.compiled import clear_when_sources_change
 
 clear_when_sources_change(Path(__file__).parent, [Path(__file__).parent])  # before any compiled function loads
 

@@ -120,7 +120,7 @@ class StepLengthController:
         net = self.arrays().astuple()
         if refine is not None and bool(refine) != self.refine:
             net = net[:12] + (bool(refine),) + net[13:]
-        apexes = np.ascontiguousarray(np.broadcast_to(apex_arr, (footholds.size, 3)))
+        apexes = np.array(np.broadcast_to(apex_arr, (footholds.size, 3)))   # writable: one compiled aim_rows
         grounds = np.asarray(terrain.height_at(footholds), dtype=np.float64).reshape(-1)
         return aim_rows(apexes, footholds, grounds, net)
 

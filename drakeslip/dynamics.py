@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from drakeslip.compiled import compiled
+
 
 MASS, LEG_LENGTH, STIFFNESS, GRAVITY, FRICTION, MIN_LEG_LENGTH = range(6)
 
@@ -20,18 +21,18 @@ MASS, LEG_LENGTH, STIFFNESS, GRAVITY, FRICTION, MIN_LEG_LENGTH = range(6)
 FACE_TOLERANCE = 1e-5
 
 
-@njit(cache=True)
+@compiled()
 def cell_index(x, x0, cell, n):
     i = int(math.floor((x - x0) / cell))
     return min(max(i, 0), n - 1)
 
 
-@njit(cache=True)
+@compiled()
 def height_at(heights, x0, cell, x):
     return heights[cell_index(x, x0, cell, heights.shape[0])]
 
 
-@njit(cache=True)
+@compiled()
 def stance_derivatives(x, z, xdot, zdot, foot_x, foot_z, p):
     """Stance: the body is pushed along the leg by the spring, F = k (L0 - l) (r / l), and pulled by gravity.
     Returns (xdot, zdot, xddot, zddot)."""
@@ -42,18 +43,18 @@ def stance_derivatives(x, z, xdot, zdot, foot_x, foot_z, p):
     return xdot, zdot, push * dx, push * dz - p[GRAVITY]
 
 
-@njit(cache=True)
+@compiled()
 def foot_position(x, z, leg_angle, p):
     """Foot of a straight leg at rest length: theta from vertical, positive = foot ahead."""
     return x + p[LEG_LENGTH] * math.sin(leg_angle), z - p[LEG_LENGTH] * math.cos(leg_angle)
 
 
-@njit(cache=True)
+@compiled()
 def leg_length(x, z, foot_x, foot_z):
     return math.sqrt((x - foot_x) ** 2 + (z - foot_z) ** 2)
 
 
-@njit(cache=True)
+@compiled()
 def leg_rate(x, z, xdot, zdot, foot_x, foot_z):
     """d/dt of the leg length (negative while the spring compresses)."""
     dx = x - foot_x
@@ -61,7 +62,7 @@ def leg_rate(x, z, xdot, zdot, foot_x, foot_z):
     return (dx * xdot + dz * zdot) / math.sqrt(dx * dx + dz * dz)
 
 
-@njit(cache=True)
+@compiled()
 def mechanical_energy(x, z, xdot, zdot, foot_x, foot_z, in_stance, p):
     """Kinetic + gravitational (absolute z) + spring energy [J]."""
     energy = 0.5 * p[MASS] * (xdot * xdot + zdot * zdot) + p[MASS] * p[GRAVITY] * z
@@ -73,38 +74,38 @@ def mechanical_energy(x, z, xdot, zdot, foot_x, foot_z, in_stance, p):
 
 # ---- guards: each crosses zero (from positive) at its physical event --------------------------------------
 
-@njit(cache=True)
+@compiled()
 def body_clearance(x, z, heights, x0, cell):
     """Body height above the terrain under it; jumps negative when the body crosses into a higher cell's face."""
     return z - height_at(heights, x0, cell, x)
 
 
-@njit(cache=True)
+@compiled()
 def foot_clearance(x, z, leg_angle, p, heights, x0, cell):
     """Height of the extended foot above the terrain under it (touchdown, foot-wall strike and trip guard)."""
     fx, fz = foot_position(x, z, leg_angle, p)
     return fz - height_at(heights, x0, cell, fx)
 
 
-@njit(cache=True)
+@compiled()
 def leg_extension(x, z, foot_x, foot_z, p):
     """l - L0: reaches 0 from below at liftoff."""
     return leg_length(x, z, foot_x, foot_z) - p[LEG_LENGTH]
 
 
-@njit(cache=True)
+@compiled()
 def stroke_left(x, z, foot_x, foot_z, p):
     """l - l_min: reaches 0 when the spring bottoms out."""
     return leg_length(x, z, foot_x, foot_z) - p[MIN_LEG_LENGTH]
 
 
-@njit(cache=True)
+@compiled()
 def friction_margin(x, z, foot_x, foot_z, p):
     """mu (z - zf) - |x - xf|: negative when the (axial) leg force leaves the friction cone."""
     return p[FRICTION] * (z - foot_z) - abs(x - foot_x)
 
 
-@njit(cache=True)
+@compiled()
 def classify_foot_contact(foot_z, terrain_height, ditch_height):
     """What the foot met: 0 = a touchdown on a top surface, else FailureMode.FOOT_COLLISION (2) for a strike
     on a vertical face (foot more than FACE_TOLERANCE below the top it entered) or a landing in a ditch."""

@@ -14,9 +14,10 @@ from dataclasses import dataclass
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
 
+from drakeslip.compiled import compiled
 from drakeslip.leg_aim import polish_one
 
 # numpy's inner loop: void loop(char **args, npy_intp const *dimensions, npy_intp const *steps, void *data)
@@ -97,7 +98,7 @@ class ControllerArrays:
                 self.scale, self.max_angle, self.leg_length, self.gravity, self.refine, *TANH_LOOP)
 
 
-@njit(cache=True)
+@compiled()
 def _tanh_rows(x, loop, data):
     """numpy's tanh of a C-contiguous array, by numpy's inner ``loop`` (``TANH_LOOP``)."""
     y = np.empty_like(x)
@@ -108,7 +109,7 @@ def _tanh_rows(x, loop, data):
     return y
 
 
-@njit(cache=True)
+@compiled()
 def aim_rows(apexes, footholds, grounds, net):
     """The leg angle for each row: apex (x, z, xdot), desired foothold and the ground's height there (``net``:
     ``ControllerArrays.astuple()``); the network's features (speed, drop, offset) are scaled to the trained hopper's

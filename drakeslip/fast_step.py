@@ -10,8 +10,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
 
+from drakeslip.compiled import compiled
 from drakeslip.dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_index, classify_foot_contact,
                        foot_clearance, foot_position, friction_margin, leg_extension, leg_rate, stance_derivatives,
                        stroke_left)
@@ -19,6 +20,8 @@ from drakeslip.dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_in
 OK, BODY_COLLISION, FOOT_COLLISION, SLIP, BOTTOM_OUT, TRIP, STALL = 0, 1, 2, 3, 4, 5, 6
 TOP, FACE = 0, 1
 STANCE_STEPS = 60  # RK4 steps per half natural period pi/omega (energy error ~1e-8 relative)
+# Compiled callers pass it as np.int64(STANCE_STEPS): numba types a global int as a literal, and a literal argument
+# compiles a specialization of step_one of its own (seconds of compile time, the same machine code).
 MAX_STANCE_PERIODS = 10  # a stance longer than this many half periods is a STALL (never happens physically)
 BISECTIONS = 40
 # Output columns of the batched kernel.
@@ -26,7 +29,7 @@ OUT_CODE, OUT_TD_X, OUT_X, OUT_Z, OUT_XDOT, OUT_ZDOT, OUT_TIME, OUT_WORK = range
 N_OUT = 8
 
 
-@njit(cache=True)
+@compiled()
 def first_contact(px, pz, vx, vz, g, t_max, heights, x0, cell):
     """First time a point on the parabola (px + vx t, pz + vz t - g t^2 / 2) meets the terrain, up to t_max.
     Returns (t, kind, cell index) with kind TOP or FACE, or (inf, -1, -1) if none."""
@@ -55,7 +58,7 @@ def first_contact(px, pz, vx, vz, g, t_max, heights, x0, cell):
             return t_exit, TOP, i  # the corner of the new cell
 
 
-@njit(cache=True)
+@compiled()
 def rk4_step(s, fx, fz, h, p):
     """One RK4 step of length h of the stance state s = (x, z, xdot, zdot) on a foot pinned at (fx, fz)."""
     k1 = stance_derivatives(s[0], s[1], s[2], s[3], fx, fz, p)
@@ -71,7 +74,7 @@ def rk4_step(s, fx, fz, h, p):
             s[3] + c * (k1[3] + 2.0 * k2[3] + 2.0 * k3[3] + k4[3]))
 
 
-@njit(cache=True)
+@compiled()
 def _hermite(s0, d0, s1, d1, h, tau):
     """Cubic Hermite interpolant of the state over one step, at tau in [0, h]."""
     u = tau / h
@@ -87,7 +90,7 @@ N_STANCE_GUARDS = 5
 _STANCE_EVENT_CODE = (OK, BODY_COLLISION, SLIP, BOTTOM_OUT, STALL)
 
 
-@njit(cache=True)
+@compiled()
 def _stance_guard(k, s, fx, fz, p, heights, x0, cell):
     """Guard k that ends stance, 'event when <= 0': liftoff (negated extension), BODY_COLLISION, SLIP,
     BOTTOM_OUT, STALL (forward velocity)."""
@@ -102,7 +105,7 @@ def _stance_guard(k, s, fx, fz, p, heights, x0, cell):
     return s[2]
 
 
-@njit(cache=True)
+@compiled()
 def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
     """Integrate stance from touchdown. Returns (code, state at the event, elapsed time, RK4 steps);
     code OK means liftoff."""
@@ -138,7 +141,7 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
     return STALL, s, t, MAX_STANCE_PERIODS * stance_steps
 
 
-@njit(cache=True)
+@compiled()
 def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stance_steps, out):
     """One apex-to-apex step; writes (code, touchdown_x, x, z, xdot, zdot, time, work) into ``out``.
     On success (x, z, xdot) is the next apex; on failure (x, z, xdot, zdot) is the state at the failure."""
@@ -203,7 +206,7 @@ def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stanc
     out[OUT_TIME] = t + t_up
 
 
-@njit(cache=True, parallel=False)
+@compiled(parallel=False)
 def step_many(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_height, stance_steps):
     """Vectorized step over arrays of apex states and leg angles (all the same length)."""
     n = leg_angles.shape[0]
@@ -213,7 +216,7 @@ def step_many(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_height, sta
     return out
 
 
-@njit(cache=True, parallel=True)
+@compiled(parallel=True)
 def step_many_parallel(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_height, stance_steps):
     """``step_many`` spread over all cores, for large batches (dataset and controller training grids)."""
     n = leg_angles.shape[0]

@@ -4,12 +4,12 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from drakeslip.compiled import compiled
 
 NEWTON_STEPS = 6
 
 
-@njit(cache=True)
+@compiled()
 def polish_one(v, d, target_i, th, leg_length, gravity, max_angle):
     """Newton steps on the closed-form touchdown offset(theta) = L0 sin(theta) + xdot T(theta), with the fall time
     T = sqrt(2 (drop - L0 cos(theta)) / g); d offset / d theta = L0 cos(theta) + xdot L0 sin(theta) / (g T), for

@@ -78,15 +78,16 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
     if int(stance_steps) < 4:
         raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
     kernel = fs.step_many_parallel if parallel else fs.step_many
-    return batch_result(kernel(np.ascontiguousarray(apexes[:, 0]), np.ascontiguousarray(apexes[:, 1]),
-                               np.ascontiguousarray(apexes[:, 2]), angles, params.as_array(), terrain.heights,
+    # fresh writable columns whatever the caller passed (a read-only or broadcast apex would compile the kernel again)
+    return batch_result(kernel(np.array(apexes[:, 0]), np.array(apexes[:, 1]), np.array(apexes[:, 2]), angles,
+                               params.as_array(), terrain.heights,
                                terrain.x0, terrain.cell, terrain.ditch_height, int(stance_steps)))
 
 
 def leg_angle_array(leg_angles) -> np.ndarray:
     """``leg_angles`` as a contiguous float array, if every one is finite and inside (-pi/2, pi/2); else ValueError
     naming the first that is not."""
-    angles = np.ascontiguousarray(leg_angles, dtype=np.float64).reshape(-1)
+    angles = np.array(leg_angles, dtype=np.float64).reshape(-1)   # a writable copy: see step_batch
     bad = angles[~(np.isfinite(angles) & (np.abs(angles) < math.pi / 2))]
     if bad.size:
         raise ValueError(f"leg angles must be finite and within (-pi/2, pi/2), got {float(bad[0])!r}")

@@ -73,14 +73,13 @@ def _leg_end(body, hybrid_row, params, failure_foot=None):
     return x, z - RETRACTED_FRACTION * params.leg_length
 
 
-def _view(result: SimulationResult, margin: float = 0.6):
-    xs = result.states[:, 0]
-    return float(xs.min()) - margin, float(xs.max()) + margin
+def _view(path: np.ndarray, margin: float = 0.6):
+    return float(path[:, 0].min()) - margin, float(path[:, 0].max()) + margin
 
 
-def _heights_in_view(result: SimulationResult):
-    """(bottom, top) of the view: below the lowest solid ground, above the highest apex."""
-    return _floor_level(result.terrain, _view(result)), float(result.states[:, 1].max()) + 0.25
+def _heights_in_view(terrain: Terrain, path: np.ndarray):
+    """(bottom, top) of the view: below the lowest solid ground, above the body's highest point."""
+    return _floor_level(terrain, _view(path)), float(path[:, 1].max()) + 0.25
 
 
 def _figsize(x_span: float, z_span: float, width: float, extra_height: float):
@@ -88,45 +87,59 @@ def _figsize(x_span: float, z_span: float, width: float, extra_height: float):
     return width, min(width * z_span / x_span, 2 * width) + extra_height
 
 
-def plot_trajectory(result: SimulationResult, ax=None):
-    """Terrain, body path, the leg at every touchdown and liftoff, footholds, apexes and the failure (if any).
-    Returns the Axes."""
+def plot_hops(terrain: Terrain, path, legs, footholds, apexes, failure=None, ax=None, title: str = ""):
+    """A hopper's run drawn to scale: the terrain under the body's ``path`` ((N, 2) x, z; the view spans all of
+    it), the leg at every touchdown and liftoff (``legs``: (kind, hip (x, z), foot (x, z)), kind "touchdown" or
+    "liftoff"), the executed ``footholds`` ((x, z) each), the ``apexes`` ((x, z) each, the start's first) and the
+    ``failure`` ((x, z) of the body, (x, z) of the foot or None, its name) if any. Returns the Axes."""
     own_figure = ax is None
-    xlim = _view(result)
-    z_lo, z_hi = _heights_in_view(result)
+    path = np.asarray(path, dtype=float)
+    xlim = _view(path)
+    z_lo, z_hi = _heights_in_view(terrain, path)
     ax = new_axes(_figsize(xlim[1] - xlim[0], z_hi - z_lo, 12.0, 1.4)) if own_figure else ax
-    plot_terrain(ax, result.terrain, xlim)
-    ax.plot(result.states[:, 0], result.states[:, 1], color=BODY_COLOR, lw=1.5, label="body path", zorder=4)
-    for event in result.events:
-        if event.kind in ("touchdown", "liftoff") and event.foot is not None:
-            style = "-" if event.kind == "touchdown" else "--"
-            ax.plot([event.state[0], event.foot[0]], [event.state[1], event.foot[1]], style, color=LEG_COLOR,
-                    lw=1.2, zorder=3)
-    footholds = [e.foot for e in result.events if e.kind == "touchdown"]
-    if footholds:
+    plot_terrain(ax, terrain, xlim)
+    ax.plot(path[:, 0], path[:, 1], color=BODY_COLOR, lw=1.5, label="body path", zorder=4)
+    for kind, hip, foot in legs:
+        style = "-" if kind == "touchdown" else "--"
+        ax.plot([hip[0], foot[0]], [hip[1], foot[1]], style, color=LEG_COLOR, lw=1.2, zorder=3)
+    if len(footholds):
         fx, fz = np.array(footholds).T
         ax.plot(fx, fz, "^", color="#d98c00", ms=8, mec="black", label="footholds", zorder=5)
-    apexes = np.array([result.states[0, :2]] + [a[:2] for a in result.apexes])
+    apexes = np.asarray(apexes, dtype=float).reshape(-1, 2)
     ax.plot(apexes[:, 0], apexes[:, 1], "o", color="white", mec=BODY_COLOR, ms=6, label="apexes", zorder=5)
-    if result.failure_event is not None:
-        e = result.failure_event
-        foot = _leg_end(e.state[:2], result.hybrid[-1], result.params, e.foot)
-        ax.plot([e.state[0], foot[0]], [e.state[1], foot[1]], ":", color="red", lw=1.5, zorder=3)
-        ax.plot(e.state[0], e.state[1], "X", color="red", ms=12, mec="black", zorder=6,
-                label=f"failure: {result.failure.name}")
+    if failure is not None:
+        (x, z), foot, name = failure
+        if foot is not None:
+            ax.plot([x, foot[0]], [z, foot[1]], ":", color="red", lw=1.5, zorder=3)
+        ax.plot(x, z, "X", color="red", ms=12, mec="black", zorder=6, label=f"failure: {name}")
     ax.plot([], [], "-", color=LEG_COLOR, label="leg at touchdown")
     ax.plot([], [], "--", color=LEG_COLOR, label="leg at liftoff")
     ax.set_aspect("equal")
     ax.set_ylim(z_lo, z_hi)
     ax.set_xlabel("x [m]")
     ax.set_ylabel("z [m]")
-    outcome = f"failed ({result.failure.name})" if result.failure else "ok"
-    ax.set_title(f"SLIP hopper: {len(result.apexes)} apexes, {len(footholds)} footholds, {outcome}")
+    ax.set_title(title)
     if own_figure:  # below the axes, where constrained layout keeps it clear of the labels
         ax.figure.legend(loc="outside lower center", fontsize=8, ncols=7, frameon=False)
     else:
         ax.legend(loc="best", fontsize=8)
     return ax
+
+
+def plot_trajectory(result: SimulationResult, ax=None):
+    """Terrain, body path, the leg at every touchdown and liftoff, footholds, apexes and the failure (if any).
+    Returns the Axes."""
+    legs = [(e.kind, e.state[:2], e.foot) for e in result.events
+            if e.kind in ("touchdown", "liftoff") and e.foot is not None]
+    footholds = [e.foot for e in result.events if e.kind == "touchdown"]
+    apexes = [result.states[0, :2]] + [a[:2] for a in result.apexes]
+    failure = None
+    if result.failure_event is not None:
+        e = result.failure_event
+        failure = (e.state[:2], _leg_end(e.state[:2], result.hybrid[-1], result.params, e.foot), result.failure.name)
+    outcome = f"failed ({result.failure.name})" if result.failure else "ok"
+    return plot_hops(result.terrain, result.states[:, :2], legs, footholds, apexes, failure, ax,
+                     f"SLIP hopper: {len(result.apexes)} apexes, {len(footholds)} footholds, {outcome}")
 
 
 def animate(result: SimulationResult, path, fps: int = 30, view_width: float = 4.0, width: float = 8.0,
@@ -135,9 +148,9 @@ def animate(result: SimulationResult, path, fps: int = 30, view_width: float = 4
     metres wide) following the body. Returns the number of frames."""
     if result.times.size == 0:
         raise ValueError("the result has no logged trajectory (simulate with log=True)")
-    full = _view(result)
+    full = _view(result.states)
     view_width = min(view_width, full[1] - full[0])
-    z_lo, z_hi = _heights_in_view(result)
+    z_lo, z_hi = _heights_in_view(result.terrain, result.states)
     ax = new_axes(_figsize(view_width, z_hi - z_lo, width, 0.6))
     fig = ax.figure
     plot_terrain(ax, result.terrain, full)

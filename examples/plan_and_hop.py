@@ -17,9 +17,10 @@ friction are not the model's, the terrain map is off by 1 cm; sizes of the paper
 and the robust Step-space preset `step@robust`, replanning at every apex. `--planner step --noise none --executed 3`
 is the paper's setting on a perfect robot.
 
-Writes a figure of the terrain, the body path, the planned and the executed footholds; --html also writes a
-Meshcat replay of the run (self-contained HTML: the executed footholds against the planned ones, the plans'
-predicted apexes, the failure marked and named).
+Writes a figure of the terrain, the body path, the leg at every touchdown and liftoff, the planned and the executed
+footholds; --html also writes a Meshcat replay of the run (self-contained HTML, the camera following the hopper: the
+executed footholds against the planned ones, the plans' predicted apexes, the failure marked and named). With
+--backend multibody both show the robot (drakeslip/multibody/replay.py).
 Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error.
 """
 from __future__ import annotations
@@ -31,7 +32,7 @@ from drakeslip.jobs import cli
 from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite_draw import DEMO_COURSE, DEMO_HEIGHT, DEMO_SPEED
-from planners.closed_loop import EXECUTED_PER_PLAN
+from planners.closed_loop import EXECUTED_PER_PLAN, executed_plans
 from drakeslip.noise import PROFILES, describe
 from planners.registry import check_label, loop_settings
 
@@ -71,7 +72,7 @@ def main(argv=None) -> int:
 
     from drakeslip import SlipParams, StepLengthController
     from drakeslip.hopper_file import paper_hopper
-    from planners.closed_loop import ClosedLoopConfig, run_case
+    from planners.closed_loop import ClosedLoopConfig, PlanRecorder, run_case
     from planners.formats.suite import Case
     from planners.formats.suite_draw import one_case
     from planners.registry import hopper_specs, make_planners
@@ -88,7 +89,7 @@ def main(argv=None) -> int:
         params = hopper.params.with_friction(args.friction or hopper.params.friction)
         controller = StepLengthController.load_default()
         specs = hopper_specs({args.planner: None}, hopper)
-        planner = Recorder(make_planners(specs, controller)[args.planner])
+        planner = PlanRecorder(make_planners(specs, controller)[args.planner])
     except (OSError, ValueError) as error:
         ap.error(str(error))
     cli.announce(argv)
@@ -118,14 +119,11 @@ def main(argv=None) -> int:
 
 
 def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
-    """The multibody robot in its closed-loop Diagram: print the plans, draw the body's path, write the replay."""
+    """The multibody robot in its closed-loop Diagram: print the plans, draw the run, write the replay."""
     from types import SimpleNamespace
 
-    import numpy as np
-
     from drakeslip.multibody.fit import fitted_template
-    from drakeslip.multibody.replay import write_robot_replay
-    from drakeslip.viz import new_axes, plot_terrain
+    from drakeslip.multibody.replay import plot_robot_run, write_robot_replay
     from planners.drake_system import run_closed_loop
 
     template = fitted_template()
@@ -140,33 +138,15 @@ def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
     print(f"{args.planner} on the multibody robot, {where(args)}: {outcome} at x = "
           f"{result['final_x']:.2f}; largest body pitch {result['max_pitch']:.3f} rad; {result['simulated_s']:.1f} s "
           f"simulated in {result['wall_s']:.1f} s")
-    positions = np.array(log.positions)
-    ax = new_axes((12, 3.5))
-    plot_terrain(ax, terrain, (-1.0, args.goal + 1.0))
-    ax.plot(positions[:, 0], positions[:, 1], color="#1f4e99", lw=1.2, label="body")
-    ax.plot(log.footholds, terrain.height_at(np.array(log.footholds)) + 0.02, "o", color="orange", ms=5,
-            mec="black", label="touchdowns")
-    ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
-    ax.set_title(f"{args.planner} on the multibody robot, {where(args)}: {outcome}")
-    ax.figure.legend(loc="outside lower center", fontsize=8, ncols=4, frameon=False)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    ax.figure.savefig(args.out, dpi=110)
-    print(f"wrote {args.out}")
+    save_figure(plot_robot_run(log, terrain), result, terrain, args,
+                f"{args.planner} on the multibody robot, {where(args)}: {outcome}")
     if args.html:
-        print(f"replay: {write_robot_replay(log, terrain, args.html, title=f'plan_and_hop.py: {args.planner}')}")
+        planned, predicted = executed_plans(planner.plans, result["plans"])
+        ending = "reached the goal" if result["success"] else f"failed ({result['failure']})"
+        write_robot_replay(log, terrain, args.html, planned, predicted,
+                           title=f"plan_and_hop.py: {args.planner} on the multibody robot, {where(args)}, {ending}")
+        print(f"replay: {args.html}")
     return cli.OK if result["success"] else cli.FAILED
-
-
-class Recorder:
-    """The planner, keeping every Plan it returns (the loop's records have no predicted apexes)."""
-
-    def __init__(self, planner):
-        self.planner, self.plans = planner, []
-
-    def plan(self, *args, **kwargs):
-        plan = self.planner.plan(*args, **kwargs)
-        self.plans.append(plan)
-        return plan
 
 
 def replay(result: dict, apex, terrain, params):
@@ -187,8 +167,6 @@ def where(args) -> str:
 
 
 def write_figure(sim, result, terrain, args):
-    import numpy as np
-
     from drakeslip.viz import new_axes, plot_terrain, plot_trajectory
 
     if sim is not None:
@@ -197,14 +175,22 @@ def write_figure(sim, result, terrain, args):
     else:  # no foothold was commanded: the terrain alone
         ax = new_axes((12, 3.5))
         plot_terrain(ax, terrain, (args.start_x - 1.0, args.goal + 1.0))
+    outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
+    noise = "perfect robot" if args.noise.silent else f"noise {describe(args.noise)}"
+    save_figure(ax, result, terrain, args,
+                f"{args.planner} planner + controller on Drake ({noise}), {where(args)}: {outcome}")
+
+
+def save_figure(ax, result, terrain, args, title):
+    """Add the executed plans' footholds and the goal to the run's figure ``ax``, title it and save it."""
+    import numpy as np
+
     planned = np.array([x for p in result["plans"] for x in p["footholds"][:len(p.get("executed", []))]])
     if planned.size:
         ax.plot(planned, terrain.height_at(planned) + 0.04, "v", color="#2a7ab0", ms=6, mec="black",
                 label="planned footholds", zorder=6)
     ax.axvline(args.goal, color="green", ls=":", lw=1.5, label="goal")
-    outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
-    noise = "perfect robot" if args.noise.silent else f"noise {describe(args.noise)}"
-    ax.set_title(f"{args.planner} planner + controller on Drake ({noise}), {where(args)}: {outcome}")
+    ax.set_title(title)
     ax.figure.legends.clear()
     ax.figure.legend(loc="outside lower center", fontsize=8, ncols=8, frameon=False)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -219,10 +205,9 @@ def write_html(sim, result, plans, args):
     if sim is None:
         print("no replay: no foothold was commanded")
         return
-    executed = [(plan, len(record["executed"])) for plan, record in zip(plans, result["plans"]) if "executed" in record]
+    planned, predicted = executed_plans(plans, result["plans"])
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
-    write_replay(sim, args.html, planned_footholds=[x for plan, k in executed for x in plan.footholds[:k]],
-                 predicted_apexes=[a for plan, k in executed for a in plan.apexes[:k]],
+    write_replay(sim, args.html, planned_footholds=planned, predicted_apexes=predicted,
                  title=f"plan_and_hop.py: {args.planner} on {where(args)}, {outcome}")
     print(f"replay: {args.html}")
 

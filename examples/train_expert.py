@@ -148,7 +148,7 @@ def main(argv=None) -> int:
                 continue
             print(f"round {r} ({rounds} in all): " + ("the expert's rollouts" if r == 0 else "DAgger"), flush=True)
             for command in round_commands(args, r, device):
-                code = run_step(command)
+                code = run_step(command, Path(__file__).resolve().parent)
                 if code != cli.OK:
                     print(f"{ap.prog}: round {r} failed: {command[0]} exited with status {code}; rerun to resume",
                           file=sys.stderr)

@@ -163,7 +163,7 @@ def main(argv=None) -> int:
                 print(f"step {k}/{len(STEPS)} {step}: done", flush=True)
                 continue
             print(f"step {k}/{len(STEPS)} {step} ({time.perf_counter() - t0:.0f} s so far)", flush=True)
-            code = run_step(command)
+            code = run_step(command, Path(__file__).resolve().parent)
             if code != cli.OK:
                 print(f"{ap.prog}: step {step} failed: {command[0]} exited with status {code}; rerun to resume",
                       file=sys.stderr)

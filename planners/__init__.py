@@ -8,7 +8,7 @@ names, ``labels()`` the presets too (e.g. ``lstm@paper``, the paper's literal se
 from pathlib import Path
 
 import drakeslip
-from drakeslip.compiled_cache import clear_when_sources_change
+from drakeslip.compiled import clear_when_sources_change
 
 # The compiled core inlines drakeslip's compiled step map and controller: its cache is kept to both packages' sources.
 clear_when_sources_change(Path(__file__).parent, [Path(__file__).parent, Path(drakeslip.__file__).parent])

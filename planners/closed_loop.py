@@ -165,3 +165,24 @@ def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: Clos
                              replan_every=config.executed_per_plan, pump_energy=config.pump_energy)
     result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
     return result
+
+
+class PlanRecorder:
+    """A planner that keeps every Plan the wrapped ``planner`` returns, in the order of the loop's records (None
+    where it refused the call), for what the records leave out: the plans' predicted apexes."""
+
+    def __init__(self, planner):
+        self.planner, self.plans = planner, []
+
+    def plan(self, *args, **kwargs):
+        self.plans.append(None)
+        self.plans[-1] = self.planner.plan(*args, **kwargs)
+        return self.plans[-1]
+
+
+def executed_plans(plans, records):
+    """(planned footholds, predicted apexes) of the hops that ran, as a replay draws them: the first k footholds
+    and apexes of each Plan in ``plans`` (``PlanRecorder.plans``), k the number of footholds its record of
+    ``records`` (a run's "plans", on either backend) says were executed."""
+    executed = [(plan, len(record["executed"])) for plan, record in zip(plans, records) if "executed" in record]
+    return [x for plan, k in executed for x in plan.footholds[:k]], [a for plan, k in executed for a in plan.apexes[:k]]

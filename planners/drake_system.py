@@ -212,9 +212,10 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
     """One case (``case.id``, ``case.terrain``, ``case.apex``) in the closed-loop Diagram, replanning at every
     apex, until the body passes ``goal_x`` at an apex, a failure, no plan, or ``max_hops``. Returns {"id",
     "success", "failure", "what", "final_x", "plans", "hops", "max_pitch", "simulated_s", "wall_s"} (and "log",
-    the HopLog, with ``trajectory``). Noise draws come from ``seed`` and the case's id; under a model mismatch the
-    plant is the drawn robot ("executed_params") and the controller keeps ``robot``'s values, as the SLIP's
-    controller keeps the model's."""
+    the HopLog, with ``trajectory``); each record of "plans" that found a plan lists in "executed" the footholds
+    the robot touched down on aiming at its footholds, as the SLIP's loop records them. Noise draws come from
+    ``seed`` and the case's id; under a model mismatch the plant is the drawn robot ("executed_params") and the
+    controller keeps ``robot``'s values, as the SLIP's controller keeps the model's."""
     noise = noise or NoiseProfile()
     rng_seed = [seed, zlib.crc32(case.id.encode())]
     model = robot or RobotParams(slip=SlipParams(friction=params.friction))
@@ -247,6 +248,7 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
         hd.visualizer.StopRecording()
         hd.visualizer.PublishRecording()
     log, records = monitor.log, hd.planner.records
+    _record_executed(records, log)
     failure = None if log.failure is None else log.failure.mode.name
     final_x = log.apexes[-1].x if log.apexes else apex.x
     if failure is None and monitor.outcome != "goal":
@@ -261,6 +263,20 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
     if trajectory:
         result["log"] = log
     return result
+
+
+def _record_executed(records: list, log) -> None:
+    """Give each record that found a plan the touchdowns (foot x) that aimed at its footholds, in order: the
+    first k of its footholds were executed, where k is their number."""
+    commanded = {}
+    for record in records:
+        if record["success"]:
+            record["executed"] = []
+            commanded[record["stamp"]] = record
+    for x, (stamp, index) in zip(log.footholds, log.aimed):
+        record = commanded.get(stamp)
+        if record is not None and index < len(record["footholds"]):
+            record["executed"].append(float(x))
 
 
 class _GoalMonitor(HopMonitor):

@@ -1,5 +1,5 @@
 """numba's cached machine code is used only when it was compiled from the sources as they are."""
-from drakeslip.compiled_cache import STAMP, clear_when_sources_change
+from drakeslip.compiled import STAMP, clear_when_sources_change
 
 
 def make_package(tmp_path):

@@ -1,10 +1,11 @@
-"""Meshcat replays: the scene's parts, the written HTML, what a real browser shows of it, and the simulate() hook
-that adds systems to the diagram."""
+"""Meshcat replays: the scene's parts, the written HTML, what a real browser shows of it (the hopper drawn and
+followed by the camera at several times of the animation, a check that fails where the hopper is not drawn), and
+the simulate() hook that adds systems to the diagram."""
+import json
 import os
 import shutil
 import signal
 import subprocess
-import time
 from pathlib import Path
 
 import numpy as np
@@ -15,6 +16,8 @@ from drakeslip.simulation import simulate
 
 PLANNED = [0.4, 1.0, 1.6]
 PREDICTED = [(0.8, 0.9, 3.0), (1.7, 1.1, 2.5)]
+WINDOW = (1280, 800)   # the window the replays are looked at in, and checked in
+OVERFLOW_RGB = (1.0, 0.0, 1.0)   # what covers a page held by ``held_at`` that overflows its window
 CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--use-gl=angle", "--use-angle=swiftshader",
                   "--enable-unsafe-swiftshader", "--disable-gpu-sandbox", "--disable-background-networking",
                   "--disable-component-update", "--disable-sync", "--no-first-run", "--disable-quic",
@@ -25,6 +28,18 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--use-gl=angle", "--use-angle=s
 def failed_run():
     """Two hops on flat ground, the second slipping mid-stance (about 1 s)."""
     return simulate((0.0, 0.6, 3.0), [0.6, 0.6], ds.Terrain.flat())
+
+
+@pytest.fixture(scope="module")
+def stepping_run():
+    """Four hops down and up steps, aimed by the controller at given footholds, and a fifth that slips (3.7 s)."""
+    from drakeslip.rollout import rollout
+
+    footholds = [0.7625, 1.5125, 2.0875, 3.7125, 5.0]
+    run = rollout(ds.ApexState(0.0, 0.9, 2.0), ds.step_world(3), ds.SlipParams(), footholds=footholds,
+                  controller=ds.StepLengthController.load_default(), log=True).simulation
+    assert run.failure == ds.FailureMode.SLIP and len(run.apexes) == 4 and run.times[-1] > 3.0
+    return run, footholds, [(a[0] + 0.1, a[1] + 0.05) for a in run.apexes]   # predicted apexes near the reached
 
 
 def browser() -> str | None:
@@ -45,14 +60,20 @@ def require_browser() -> None:
     pytest.skip(reason)
 
 
-def screenshot(page: Path, png: Path, size=(1280, 640), budget_ms: int = 5000) -> str:
+def screenshot(page: Path, png: Path, size=(1280, 640), budget_ms: int = 5000, wait: bool = True):
     """Open ``page`` in headless Chromium (software GL) for ``budget_ms`` of virtual time and save a PNG;
-    returns Chromium's stderr. The whole process group is ended if it hangs."""
+    returns Chromium's stderr (with ``wait=False``, the running process: ``finish`` it). The whole process group
+    is ended if it hangs."""
     profile = png.parent / f"profile-{png.stem}"
     command = [browser(), *CHROMIUM_FLAGS, f"--user-data-dir={profile}", f"--window-size={size[0]},{size[1]}",
                f"--virtual-time-budget={budget_ms}", f"--screenshot={png}", page.resolve().as_uri()]
     run = subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                            start_new_session=True)
+    return finish(run, png) if wait else run
+
+
+def finish(run: subprocess.Popen, png: Path) -> str:
+    """Wait for the Chromium ``run`` that writes ``png``; returns its stderr."""
     try:
         _, err = run.communicate(timeout=120)
     except subprocess.TimeoutExpired:
@@ -63,15 +84,76 @@ def screenshot(page: Path, png: Path, size=(1280, 640), budget_ms: int = 5000) -
     return err
 
 
-def near(image: np.ndarray, rgb, tolerance: float = 60.0) -> int:
-    """How many pixels lie within ``tolerance`` (RGB distance, 0-255 scale) of the colour ``rgb`` (0-1 scale).
-    The renderer's tone mapping moves saturated colours by up to about 55."""
+def near_mask(image: np.ndarray, rgb, tolerance: float = 60.0) -> np.ndarray:
+    """Which pixels lie within ``tolerance`` (RGB distance, 0-255 scale) of the colour ``rgb`` (0-1 scale). The
+    renderer's tone mapping moves saturated colours by up to about 55."""
     target = 255.0 * np.asarray(rgb)
-    return int((np.linalg.norm(image.astype(float) - target, axis=-1) < tolerance).sum())
+    return np.linalg.norm(image.astype(float) - target, axis=-1) < tolerance
+
+
+def near(image: np.ndarray, rgb, tolerance: float = 60.0) -> int:
+    """How many pixels lie within ``tolerance`` of the colour ``rgb`` (``near_mask``)."""
+    return int(near_mask(image, rgb, tolerance).sum())
+
+
+def held_at(page: Path, t: float, out: Path, hide: str | None = None) -> Path:
+    """A copy of the replay ``page`` at ``out`` whose animation is held at ``t`` seconds (paused and sought, as
+    Meshcat's time slider does) and, with ``hide``, whose object at that Meshcat path is invisible. The copy covers
+    itself in OVERFLOW_RGB when its content overflows the window (a page that would scroll)."""
+    hide_js = "" if hide is None else \
+        f'viewer.scene_tree.find({json.dumps(hide.strip("/").split("/"))}).set_property("visible", false);'
+    script = f"""<script>
+setInterval(() => {{
+  if (viewer.animator.actions.length) {{ viewer.animator.pause(); viewer.animator.seek({t}); }}
+  {hide_js}
+  const page = document.scrollingElement;
+  if ((page.scrollHeight > innerHeight || page.scrollWidth > innerWidth) && !document.getElementById("overflow")) {{
+    const cover = document.createElement("div");
+    cover.id = "overflow";
+    cover.style.cssText = "position:fixed;left:0;top:0;width:100vw;height:100vh;z-index:99999;background:#f0f";
+    document.body.appendChild(cover);
+  }}
+}}, 50);
+</script>
+"""
+    head, tail, end = page.read_text().rpartition("</body>")
+    out.write_text(head + script + tail + end)
+    return out
+
+
+def shots(page: Path, times, folder: Path, hide: str | None = None) -> list:
+    """Screenshots (RGB arrays, WINDOW in size) of ``page`` held at each of ``times`` (``held_at``), rendered
+    side by side."""
+    from PIL import Image
+
+    pngs = [folder / f"{page.stem}-{i}{'-hidden' if hide else ''}.png" for i in range(len(times))]
+    copies = [held_at(page, t, png.with_suffix(".html"), hide) for t, png in zip(times, pngs)]
+    runs = [screenshot(copy, png, WINDOW, budget_ms=4000, wait=False) for copy, png in zip(copies, pngs)]
+    for run, png in zip(runs, pngs):
+        console = [line for line in finish(run, png).splitlines() if ":CONSOLE" in line]
+        assert not any("Uncaught" in line or "rror" in line for line in console), console
+    return [np.asarray(Image.open(png).convert("RGB")) for png in pngs]
+
+
+def assert_body_drawn(images, body_rgb, header_px: int, terrain_rgb, tolerance: float = 45.0) -> None:
+    """The screenshots ``images`` (of one replay at different times) show the body, in its own colour
+    ``body_rgb``, in every one, at one place across the window while the terrain moves under it (the camera
+    follows the body), and no page that overflows its window."""
+    scenes = [image[header_px + 2:] for image in images]
+    assert all(near(scene, OVERFLOW_RGB, 30) == 0 for scene in scenes), "the page overflows the window: it scrolls"
+    bodies = [near_mask(scene, body_rgb, tolerance) for scene in scenes]
+    counts = [int(body.sum()) for body in bodies]
+    assert min(counts) > 500, f"the body is not drawn in every screenshot: {counts} pixels of its colour"
+    width = scenes[0].shape[1]
+    columns = [float(np.nonzero(body)[1].mean()) for body in bodies]
+    assert max(columns) < 0.5 * width and max(columns) - min(columns) < 0.03 * width, columns
+    ground = [near_mask(scene, terrain_rgb, 30) for scene in scenes]
+    moved = [float((a != b).mean()) for a, b in zip(ground, ground[1:])]
+    assert len(images) == 1 or min(moved) > 0.01, f"the terrain did not move under the body: {moved}"
 
 
 def test_terrain_boxes_merge_cells_and_leave_ditches_open():
-    from drakeslip.meshcat_replay import terrain_boxes
+    from drakeslip.replay_scene import terrain_boxes
 
     terrain = ds.ditch_world(0)
     boxes = terrain_boxes(terrain, -1.0, 6.0, floor=-0.5)
@@ -87,7 +169,7 @@ def test_terrain_boxes_merge_cells_and_leave_ditches_open():
 
 
 def test_every_failure_name_has_letters():
-    from drakeslip.meshcat_replay import text_segments
+    from drakeslip.replay_scene import text_segments
 
     for mode in ds.FailureMode:
         segments, width = text_segments(mode.name, 0.1)
@@ -129,31 +211,48 @@ def test_draw_replay_builds_the_scene_and_a_real_time_animation(failed_run):
         draw_replay(meshcat, simulate((0.0, 0.6, 2.0), [0.25], ds.Terrain.flat(), log=False))
 
 
-def test_the_replay_renders_in_headless_chromium(failed_run, tmp_path):
-    """The written page opens offline in a real browser and draws the terrain, body, leg and every marker."""
+@pytest.fixture(scope="module")
+def stepping_page(stepping_run, tmp_path_factory):
+    from drakeslip.meshcat_replay import write_replay
+
+    run, planned, predicted = stepping_run
+    return write_replay(run, tmp_path_factory.mktemp("replay") / "replay.html", planned, predicted,
+                        title="four hops, a slip")
+
+
+def test_the_replay_follows_the_hopper_in_headless_chromium(stepping_run, stepping_page):
+    """The written page opens offline in a real browser, fits its window, and shows the body at 0.6 s, 1.9 s and
+    the end of the run, at one place across the window while the terrain slides under it; the markers, and the
+    failure at the end only."""
     require_browser()
-    from PIL import Image
-
     from drakeslip import meshcat_replay as mr
+    from drakeslip import replay_scene as rs
 
-    page = mr.write_replay(failed_run, tmp_path / "replay.html", PLANNED, PREDICTED, title="two hops, a slip")
-    text = page.read_text()
-    assert "<title>two hops, a slip</title>" in text and "failed: SLIP at t = 1.0" in text
-    assert page.stat().st_size < 5_000_000
-    start = time.perf_counter()
-    err = screenshot(page, tmp_path / "replay.png")  # 5 s of page time: the 1 s run has ended, failure shown
-    elapsed = time.perf_counter() - start
-    image = np.asarray(Image.open(tmp_path / "replay.png").convert("RGB"))
-    assert image.shape == (640, 1280, 3)
-    scene = image[mr.HEADER_PX + 2:]
-    counts = {name: near(scene, getattr(mr, f"{name}_RGB"))
-              for name in ("TERRAIN", "BODY", "LEG", "PLANNED", "PREDICTED", "EXECUTED", "FAILURE")}
-    assert counts["TERRAIN"] > 0.1 * scene.shape[0] * scene.shape[1], (counts, elapsed)
-    assert all(n > 200 for n in counts.values()), (counts, elapsed)
-    not_white = (scene.astype(int).sum(axis=-1) < 720).mean()
-    assert 0.1 < not_white < 0.9, not_white
-    console = [line for line in err.splitlines() if ":CONSOLE" in line]
-    assert not any("Uncaught" in line or "rror" in line for line in console), console
+    text = stepping_page.read_text()
+    assert "<title>four hops, a slip</title>" in text and "failed: SLIP at t = 3.6" in text
+    assert stepping_page.stat().st_size < 5_000_000
+    images = shots(stepping_page, [0.6, 1.9, 9.0], stepping_page.parent)
+    assert_body_drawn(images, mr.BODY_RGB, rs.HEADER_PX, rs.TERRAIN_RGB)
+    scenes = [image[rs.HEADER_PX + 2:] for image in images]
+    counts = {name: [near(scene, getattr(rs, f"{name}_RGB")) for scene in scenes]
+              for name in ("PLANNED", "PREDICTED", "EXECUTED", "FAILURE")}
+    counts["LEG"] = [near(scene, mr.LEG_RGB) for scene in scenes]
+    assert all(max(n) > 200 for n in counts.values()), counts
+    assert counts["FAILURE"][0] < 20 and counts["FAILURE"][1] < 20, counts
+    for scene in scenes:
+        assert 0.1 < (scene.astype(int).sum(axis=-1) < 720).mean() < 0.9
+
+
+def test_the_body_check_fails_on_a_page_without_the_hopper(stepping_page):
+    """The same page held at 1.9 s with the hopper hidden: the terrain is there, the check of the body fails."""
+    require_browser()
+    from drakeslip import meshcat_replay as mr
+    from drakeslip import replay_scene as rs
+
+    images = shots(stepping_page, [1.9], stepping_page.parent, hide="/drakeslip/world/hopper")
+    assert near(images[0][rs.HEADER_PX + 2:], rs.TERRAIN_RGB) > 0.1 * WINDOW[0] * WINDOW[1]
+    with pytest.raises(AssertionError, match="the body is not drawn"):
+        assert_body_drawn(images, mr.BODY_RGB, rs.HEADER_PX, rs.TERRAIN_RGB)
 
 
 def test_simulate_adds_your_systems_to_the_diagram():
@@ -207,8 +306,10 @@ def test_plan_and_hop_writes_a_replay_that_renders(run_script, tmp_path):
     from PIL import Image
 
     from drakeslip import meshcat_replay as mr
+    from drakeslip import replay_scene as rs
 
     screenshot(page, tmp_path / "replay.png", budget_ms=3000)
-    scene = np.asarray(Image.open(tmp_path / "replay.png").convert("RGB"))[mr.HEADER_PX + 2:]
-    counts = {name: near(scene, getattr(mr, f"{name}_RGB")) for name in ("TERRAIN", "BODY", "PLANNED", "EXECUTED")}
+    scene = np.asarray(Image.open(tmp_path / "replay.png").convert("RGB"))[rs.HEADER_PX + 2:]
+    counts = {name: near(scene, getattr(rs, f"{name}_RGB")) for name in ("TERRAIN", "PLANNED", "EXECUTED")}
+    counts["BODY"] = near(scene, mr.BODY_RGB)
     assert counts["TERRAIN"] > 0.1 * scene.shape[0] * scene.shape[1] and all(n > 50 for n in counts.values()), counts

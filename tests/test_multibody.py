@@ -48,12 +48,29 @@ def _ditches_case():
     return SimpleNamespace(id="two-ditches", terrain=_example().two_ditches(), apex=(0.0, 0.62, 1.5))
 
 
-def test_a_multibody_case_crosses_short_ditches():
+@pytest.fixture(scope="module")
+def ditches_run():
+    """step@robust takes the robot over two short ditches to x = 4 m (its Plans kept), with its trajectory."""
+    import planners
+    from planners.closed_loop import PlanRecorder
     from planners.drake_system import run_closed_loop
 
-    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams())
+    recorder = PlanRecorder(planners.make("step@robust"))
+    return run_closed_loop(recorder, _ditches_case(), 4.0, ds.SlipParams(), trajectory=True), recorder
+
+
+def test_a_multibody_case_crosses_short_ditches(ditches_run):
+    """The robot crosses, each touchdown aimed at a plan's foothold and recorded as executed under that plan's
+    record, within 2 cm of it."""
+    from planners.closed_loop import executed_plans
+
+    result, recorder = ditches_run
     assert result["success"], result["what"]
     assert result["final_x"] >= 4.0 and result["hops"] >= 5 and result["max_pitch"] < 0.5
+    planned, predicted = executed_plans(recorder.plans, result["plans"])
+    executed = [x for record in result["plans"] for x in record["executed"]]
+    assert len(planned) == len(predicted) == len(executed) == result["hops"]
+    assert executed == result["log"].footholds and np.abs(np.subtract(executed, planned)).max() < 0.02
 
 
 def test_without_energy_injection_the_same_case_runs_out_of_energy():
@@ -65,6 +82,14 @@ def test_without_energy_injection_the_same_case_runs_out_of_energy():
     energies = [apex_energy(a.z, a.xdot, 9.81) for a in result["log"].apexes]
     start = apex_energy(0.62, 1.5, 9.81)
     assert len(energies) >= 3 and energies[-1] < start - 1.0 and all(np.diff(energies[:4]) < 0)
+    from pydrake.geometry import Meshcat
+
+    from drakeslip.multibody.replay import draw_robot_replay
+
+    meshcat = Meshcat()   # the replay marks and names the failure
+    draw_robot_replay(meshcat, result["log"], _ditches_case().terrain, fps=10)
+    failure = result["log"].failure
+    assert failure is not None and all(meshcat.HasPath(f"/drakeslip/world/failure/{p}") for p in ("x", "label"))
 
 
 def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
@@ -258,30 +283,70 @@ def test_the_fit_reports_its_errors_by_the_hops_speed_change():
     assert bands[0]["median_x"] == 0.07 and bands[1]["median_x"] == pytest.approx(0.02)
 
 
-def test_the_robot_replay_renders_in_headless_chromium(tmp_path):
-    """The replay shows the robot's own geometry (blue body, dark upper leg, red foot) over the terrain."""
-    from test_meshcat_replay import require_browser, screenshot
+@pytest.fixture(scope="module")
+def robot_page(ditches_run, tmp_path_factory):
+    from drakeslip.multibody.replay import write_robot_replay
+    from planners.closed_loop import executed_plans
+
+    result, recorder = ditches_run
+    planned, predicted = executed_plans(recorder.plans, result["plans"])
+    return write_robot_replay(result["log"], _ditches_case().terrain, tmp_path_factory.mktemp("robot") / "robot.html",
+                              planned, predicted, title="robot over a ditch")
+
+
+def _body_rgb():
+    """The robot's body's colour in the replay: its own (hopper.sdf's), no other part's or marker's."""
+    from drakeslip.multibody.replay import RobotModel
+
+    return next(tuple(colour.rgba[:3]) for _, name, _, _, colour in RobotModel().parts if name == "body_visual")
+
+
+def test_the_robot_replay_follows_the_robot_in_headless_chromium(robot_page):
+    """The replay fits its window and shows the robot's body at 0.8 s, 2.2 s and the end of the run, at one place
+    across the window while the terrain slides under it, with its legs, the planned and executed footholds and the
+    predicted apexes."""
+    from test_meshcat_replay import assert_body_drawn, near, require_browser, shots
 
     require_browser()
-    from PIL import Image
+    from drakeslip import replay_scene as rs
 
-    from drakeslip.multibody.replay import HEADER_PX, write_robot_replay
-    from planners.drake_system import run_closed_loop
+    text = robot_page.read_text()
+    assert "<title>robot over a ditch</title>" in text and "no failure" in text and "planned footholds" in text
+    images = shots(robot_page, [0.8, 2.2, 9.0], robot_page.parent)
+    assert_body_drawn(images, _body_rgb(), rs.HEADER_PX, rs.TERRAIN_RGB)
+    scenes = [image[rs.HEADER_PX + 2:] for image in images]
+    counts = {name: [near(scene, getattr(rs, f"{name}_RGB")) for scene in scenes]
+              for name in ("PLANNED", "PREDICTED", "EXECUTED")}
+    counts["upper leg"] = [near(scene, (0.30, 0.30, 0.30), 30) for scene in scenes]
+    assert all(max(n) > 100 for n in counts.values()) and max(counts["upper leg"]) > 300, counts
 
-    case = _ditches_case()
-    result = run_closed_loop("step@robust", case, 1.0, ds.SlipParams(), trajectory=True)
-    assert result["success"], result["what"]
-    page = write_robot_replay(result["log"], case.terrain, tmp_path / "robot.html", title="robot over a ditch")
-    text = page.read_text()
-    assert "<title>robot over a ditch</title>" in text and "no failure" in text
-    screenshot(page, tmp_path / "robot.png", budget_ms=6000)
-    image = np.asarray(Image.open(tmp_path / "robot.png").convert("RGB")).astype(int)[HEADER_PX + 2:]
-    r, g, b = image[..., 0], image[..., 1], image[..., 2]
-    body = ((b > r + 60) & (b > g + 30)).sum()
-    foot = ((r > g + 60) & (r > b + 60)).sum()
-    terrain = ((r > b + 15) & (g > b + 5) & (r < 200)).sum()
-    dark = ((r < 60) & (g < 60) & (b < 60)).sum()
-    assert body > 500 and foot > 30 and terrain > 0.05 * r.size and dark > 50, (body, foot, terrain, dark)
+
+def test_the_robot_check_fails_on_a_page_without_the_robot(robot_page):
+    """The same page held at 2.2 s with the robot hidden: the terrain is there, the check of the body fails."""
+    from test_meshcat_replay import WINDOW, assert_body_drawn, near, require_browser, shots
+
+    require_browser()
+    from drakeslip import replay_scene as rs
+
+    images = shots(robot_page, [2.2], robot_page.parent, hide="/drakeslip/world/robot")
+    assert near(images[0][rs.HEADER_PX + 2:], rs.TERRAIN_RGB) > 0.1 * WINDOW[0] * WINDOW[1]
+    with pytest.raises(AssertionError, match="the body is not drawn"):
+        assert_body_drawn(images, _body_rgb(), rs.HEADER_PX, rs.TERRAIN_RGB)
+
+
+def test_the_robot_figure_shows_the_whole_path_and_the_leg_at_each_touchdown_and_liftoff(ditches_run):
+    from drakeslip.multibody.replay import plot_robot_run
+    from drakeslip.viz import LEG_COLOR
+
+    result, _ = ditches_run
+    log = result["log"]
+    ax = plot_robot_run(log, _ditches_case().terrain)
+    z = np.array(log.positions)[:, 1]
+    assert ax.get_ylim()[0] < 0.0 and ax.get_ylim()[1] > z.max() > 0.6
+    legs = [line for line in ax.lines if line.get_color() == LEG_COLOR and len(line.get_xdata()) == 2]
+    assert len(legs) == len(log.touchdown_times) + len(log.liftoff_times) >= 2 * result["hops"] - 1
+    feet = np.array([line.get_xdata()[1] for line in legs[:result["hops"]]])
+    np.testing.assert_allclose(feet, log.footholds, atol=0.01)   # a leg at touchdown ends on its foothold
 
 
 def test_the_closed_loop_config_switches_the_pump_and_records_it(monkeypatch, run_script):

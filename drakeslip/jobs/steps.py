@@ -1,5 +1,6 @@
 """Pipelines of example scripts: each step a command of its own (examples/NAME.py ARGS), printed before it runs and
-timed after, so the same commands run by hand give the same files (examples/train_expert.py, train_hopper.py)."""
+timed after, so the same commands run by hand give the same files (examples/train_expert.py, train_hopper.py). The
+scripts are found in the folder of the script that runs the pipeline, which an installed package does not hold."""
 from __future__ import annotations
 
 import os
@@ -10,20 +11,19 @@ import sys
 import time
 from pathlib import Path
 
-EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
-
 
 def shown(command: list[str]) -> str:
     """The shell line of a step ``[script, *args]``: ``python3 examples/SCRIPT ARGS``."""
     return "python3 " + " ".join(shlex.quote(a) for a in [f"examples/{command[0]}", *command[1:]])
 
 
-def run_step(command: list[str]) -> int:
-    """Run examples/COMMAND in a process of its own, printing it first and its time after; its exit status. On
-    Ctrl-C the step ends as its script does, saying in one line what it saved, and so does this process."""
+def run_step(command: list[str], scripts: Path) -> int:
+    """Run COMMAND (a script in the folder ``scripts`` and its arguments) in a process of its own, printing it first
+    and its time after; its exit status. On Ctrl-C the step ends as its script does, saying in one line what it
+    saved, and so does this process."""
     print("$ " + shown(command), flush=True)
     t0 = time.perf_counter()
-    step = subprocess.Popen([sys.executable, str(EXAMPLES / command[0]), *command[1:]])
+    step = subprocess.Popen([sys.executable, str(Path(scripts) / command[0]), *command[1:]])
     try:
         code = step.wait()
     except KeyboardInterrupt:

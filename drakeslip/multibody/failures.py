@@ -16,7 +16,8 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
-from drakeslip.multibody.controller import ASCENT, DESCENT, PHASE, STANCE, TD_ANGLE, TOUCHDOWN_X, Heights
+from drakeslip.multibody.controller import (ASCENT, DESCENT, PHASE, STAMP, STANCE, STEP, TD_ANGLE, TOUCHDOWN_X,
+                                            Heights)
 from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
 
@@ -42,12 +43,17 @@ class RobotFailure:
 
 @dataclass
 class HopLog:
-    """Touchdowns (foot x and absolute leg angle), apexes, the largest |pitch| (overall, and over each hop up to
+    """Touchdowns (foot x, absolute leg angle, time, and in ``aimed`` the stamp of the command the controller
+    followed and the index of its foothold the touchdown aimed at: an index past the command's footholds is a
+    touchdown by Raibert's placement), liftoff times, apexes, the largest |pitch| (overall, and over each hop up to
     its apex in ``hop_pitch``), the failure (None if none), and with ``trajectory`` the times and plant positions of
     every step."""
 
     footholds: list = field(default_factory=list)
     leg_angles: list = field(default_factory=list)
+    touchdown_times: list = field(default_factory=list)
+    aimed: list = field(default_factory=list)
+    liftoff_times: list = field(default_factory=list)
     apexes: list = field(default_factory=list)
     max_pitch: float = 0.0
     hop_pitch: list = field(default_factory=list)
@@ -92,6 +98,10 @@ class HopMonitor:
             if phase == STANCE:
                 log.footholds.append(float(c[TOUCHDOWN_X]))
                 log.leg_angles.append(float(c[TD_ANGLE]))
+                log.touchdown_times.append(t)
+                log.aimed.append((int(c[STAMP]), int(c[STEP]) - 1))   # the touchdown counted itself in STEP
+            elif self.phase == STANCE:
+                log.liftoff_times.append(t)
             elif phase == DESCENT and self.phase == ASCENT:
                 log.apexes.append(ApexState(float(x), float(z), float(xd)))
                 log.hop_pitch.append(self.hop_pitch)

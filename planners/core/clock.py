@@ -7,9 +7,11 @@ array (STEP_MAP, CONTROLLER, MODEL), which ``planners.base.Timing.add`` reads.""
 from __future__ import annotations
 
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
+
+from drakeslip.compiled import compiled
 
 # slots of a core's time array: seconds in each part of a planning call
 STEP_MAP, CONTROLLER, MODEL, N_SLOTS = 0, 1, 2, 3
@@ -33,7 +35,7 @@ def _monotonic_ns(typingctx):
     return types.int64(), codegen
 
 
-@njit(cache=True)
+@compiled()
 def now():
     """Seconds on the monotonic clock (``time.perf_counter()``'s)."""
     return _monotonic_ns() * 1e-9

@@ -6,8 +6,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
+from drakeslip.compiled import compiled
 from drakeslip.dynamics import GRAVITY, LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
@@ -19,7 +19,7 @@ from planners.search.robust import clear_of_edges_at
 SPACING, PAD, UNTIL, EDGE, MAX_ANGLE, TOLERANCE, MIN_SPEED, WINDOW_END, AT_FAILURE = range(9)
 
 
-@njit(cache=True)
+@compiled()
 def reach_bounds(x, z, v, terr, p, sin_a, cos_a):
     """``planners.search.step_space.touchdown_range`` with the reach angles' sines and cosines given."""
     heights, x0, cell, ditch, solid_min = terr
@@ -41,7 +41,7 @@ def reach_bounds(x, z, v, terr, p, sin_a, cos_a):
     return lo, hi
 
 
-@njit(cache=True)
+@compiled()
 def grid_candidates(x, z, v, terr, p, sin_a, cos_a, spacing, pad, until):
     """The desired footholds x0 + (i + 1/2) spacing within reach (padded by ``pad``), up to ``until``."""
     lo, hi = reach_bounds(x, z, v, terr, p, sin_a, cos_a)
@@ -54,7 +54,7 @@ def grid_candidates(x, z, v, terr, p, sin_a, cos_a, spacing, pad, until):
     return out
 
 
-@njit(cache=True)
+@compiled()
 def aim_candidates(x, z, v, x_l, terr, net, edge_margin, max_angle):
     """The controller's leg angle from apex (x, z, v) to each of ``x_l``, NaN where the foothold is not admissible
     (a ditch cell, near an edge, or reached only outside the friction cone): one controller call for the admissible
@@ -78,16 +78,16 @@ def aim_candidates(x, z, v, x_l, terr, net, edge_margin, max_angle):
     return theta
 
 
-@njit(cache=True)
+@compiled()
 def fly(x, z, v, theta, x_l, terr, p, tolerance, min_speed, out):
     """One step-map call; whether it succeeds, lands within ``tolerance`` of ``x_l`` and keeps ``min_speed`` (the
     next apex is left in ``out``)."""
     heights, x0, cell, ditch, _ = terr
-    step_one(x, z, v, theta, p, heights, x0, cell, ditch, STANCE_STEPS, out)
+    step_one(x, z, v, theta, p, heights, x0, cell, ditch, np.int64(STANCE_STEPS), out)
     return out[OUT_CODE] == OK and abs(out[OUT_TD_X] - x_l) < tolerance and out[OUT_XDOT] >= min_speed
 
 
-@njit(cache=True)
+@compiled()
 def isolation(x_l, ok, at_failure):
     """``planners.search.tree.isolation``: D for each successful candidate, in candidate order."""
     idx = np.flatnonzero(ok)
@@ -105,7 +105,7 @@ def isolation(x_l, ok, at_failure):
     return d
 
 
-@njit(cache=True)
+@compiled()
 def children_of(x_l, theta, ok, apexes, window_end, at_failure):
     """The successful candidates inside the window as (angles, footholds, apexes, isolation), and whether a
     successful one lands past the window (``StepSpacePlanner.children``)."""
@@ -130,7 +130,7 @@ def children_of(x_l, theta, ok, apexes, window_end, at_failure):
     return angles, footholds, kid_apexes, d, beyond
 
 
-@njit(cache=True)
+@compiled()
 def expand_grid(x, z, v, terr, p, net, sin_a, cos_a, s, slots):
     """Step-space's expansion of the node at apex (x, z, v) with settings ``s`` (SPACING..AT_FAILURE): returns
     (angles, footholds, apexes, isolation, step-map calls, beyond); adds the controller's and the step map's time

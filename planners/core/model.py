@@ -13,8 +13,10 @@ import math
 
 import numpy as np
 from llvmlite import ir
-from numba import njit, types
+from numba import types
 from numba.extending import intrinsic
+
+from drakeslip.compiled import compiled
 
 
 # exp on [-50, 0] (``exp_neg``): k = round(a / ln 2) and r = a - k ln 2 (ln 2 in two parts, as Cody and Waite),
@@ -36,7 +38,7 @@ def _float_of_bits(typingctx, bits):
     return types.float64(types.int64), codegen
 
 
-@njit(cache=True, fastmath={"contract"}, inline="always", error_model="numpy")
+@compiled(fastmath={"contract"}, inline="always", error_model="numpy")
 def exp_neg(a):
     """e^a for a <= 0 (a below EXP_FLOOR taken as EXP_FLOOR), within an ulp of ``math.exp``."""
     a = max(a, EXP_FLOOR)
@@ -48,14 +50,14 @@ def exp_neg(a):
     return p * _float_of_bits((np.int64(k) + 1023) << 52)
 
 
-@njit(cache=True, fastmath={"contract"}, inline="always", error_model="numpy")
+@compiled(fastmath={"contract"}, inline="always", error_model="numpy")
 def tanh(x):
     """tanh from one exp, within 3e-16 of libm's tanh (an absolute bound: near 0 the two differ in relative terms)."""
     e = exp_neg(-2.0 * abs(x))
     return math.copysign((1.0 - e) / (1.0 + e), x)
 
 
-@njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def affine(x, w, b, out):
     """out = x @ w + b (w stored (inputs, outputs)): each output summed in input order with fused multiply-adds,
     the outputs side by side and four inputs a pass, so the sums vectorize without reordering."""
@@ -123,7 +125,7 @@ class ModelArrays:
         return self.arrays
 
 
-@njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def _conv_relu(x, w, b):
     """A 1-D convolution with 'same' zero padding, then ReLU: x (in, n), w (out, in, taps) -> (out, n); each output
     summed over (input, tap) in order, the cells side by side."""
@@ -144,7 +146,7 @@ def _conv_relu(x, w, b):
     return y
 
 
-@njit(cache=True, fastmath={"contract"})
+@compiled(fastmath={"contract"})
 def _first_conv_relu(window, prev_bin, w, b, subcells):
     """``_conv_relu`` of the image (the window's heights; the previous step one-hot, a channel per sub-cell) without
     its zeros: the heights' taps, then the one weight each cell next to the previous step's cell meets. The zeros add
@@ -167,7 +169,7 @@ def _first_conv_relu(window, prev_bin, w, b, subcells):
     return y
 
 
-@njit(cache=True)
+@compiled()
 def encode(window, prev_bin, net):
     """The CNN's encoding (the LSTM's input) of the window's relative heights and a one-hot previous step at bin
     ``prev_bin``."""
@@ -181,12 +183,12 @@ def encode(window, prev_bin, net):
     return out
 
 
-@njit(cache=True, inline="always", error_model="numpy")
+@compiled(inline="always", error_model="numpy")
 def _sigmoid(x):
     return 0.5 * (1.0 + tanh(0.5 * x))
 
 
-@njit(cache=True)
+@compiled()
 def first_gates(encoding, net):
     """The first LSTM layer's input gates x @ w_ih + b for an encoding (kept per window and bin)."""
     w_ih, b = net[8], net[11]
@@ -195,7 +197,7 @@ def first_gates(encoding, net):
     return out
 
 
-@njit(cache=True, fastmath={"contract"}, error_model="numpy")
+@compiled(fastmath={"contract"}, error_model="numpy")
 def first_step_logits(apex_features, gates_in, net, bins):
     """Logits of the model's first step from an apex (its three features), given its window's first layer's input
     gates ``gates_in`` (``first_gates``): of every bin when ``bins`` is empty, else of those ``bins`` (the
@@ -234,7 +236,7 @@ def first_step_logits(apex_features, gates_in, net, bins):
     return logits
 
 
-@njit(cache=True)
+@compiled()
 def masked_softmax(logits, temperature, mask):
     """softmax(logits / temperature) with the bins where ``mask`` is True at probability 0 (those at -inf too);
     NaN everywhere when every bin is (numpy's 0/0: no candidate can be drawn)."""

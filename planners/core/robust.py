@@ -5,14 +5,13 @@ controller from the apexes they are told and fly there (``fly_particles``); a no
 from __future__ import annotations
 
 import numpy as np
-from numba import njit, types
-from numba.typed import Dict
 
+from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
 from drakeslip.fast_controller import aim_rows
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
-from planners.core.tree import heap_pop
+from planners.core.tree import CAPACITY, copy_head, grown, heap_pop
 from planners.search.robust import NO_FAN, fly_particles
 
 FAILED_CHECK = -2  # what ``pop_admitted`` returns for a popped node that failed the check
@@ -21,9 +20,16 @@ FAILED_CHECK = -2  # what ``pop_admitted`` returns for a popped node that failed
  EDGE_MARGIN, MIN_SPEED, FAN, LOOKAHEAD_DEPTH) = range(16)
 
 
-# the core's tuple for no robust check (depth 0): nothing in it is read or written
-NO_CHECK = (0, 0, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0),
-            np.zeros((0, 6)), np.zeros((0, 1)), np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN, 1)
+def no_check() -> tuple:
+    """The core's tuple for no robust check (depth 0), of the same types as ``robust_arrays``'s (the worlds' heights
+    read-only), so one compiled search serves both: nothing in it is read or written."""
+    heights = np.zeros((0, 1))
+    heights.setflags(write=False)
+    return (0, 0, np.zeros((0, 3)), np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0),
+            np.zeros((0, 6)), heights, np.zeros(0), 0.0, 0.0, 0.0, 0.0, NO_FAN, 1)
+
+
+NO_CHECK = no_check()
 
 
 def robust_arrays(robustness, problem) -> tuple:
@@ -39,25 +45,29 @@ def robust_arrays(robustness, problem) -> tuple:
             int(robustness.lookahead_depth))
 
 
-@njit(cache=True)
+@compiled()
 def root_flights(rob):
-    """(node -> its particles' row in ``flights``, the particles' states by row), holding the root's particles
-    where the robust check flies any (depth > 0); it grows as nodes pass the check."""
-    flight_of, flights = Dict.empty(types.int64, types.int64), np.empty((16,) + rob[STATES].shape)
+    """The particles' flights: (each node's row in ``states``, -1 where it has none; how many rows are set; the
+    particles' states (rows, P, 3)), holding the root's particles where the robust check flies any (depth > 0).
+    They grow as nodes pass the check."""
+    row_of = np.full(CAPACITY, -1, np.int64)
+    states = np.empty((16,) + rob[STATES].shape)
+    rows = np.int64(0)
     if rob[DEPTH] > 0:
-        flight_of[0] = 0
-        flights[0] = rob[STATES]
-    return flight_of, flights
+        row_of[0], rows = 0, 1
+        copy_head(states, rob[STATES].reshape((1,) + rob[STATES].shape), 1)
+    return row_of, rows, states
 
 
-@njit(cache=True)
-def admit(tree, node, rob, flight_of, flights, terr, net, slots):
-    """Whether the popped ``node`` passes the robust check, the hops flown, and the flights array (grown when
-    full; the node's particles are added to it when it passes)."""
+@compiled()
+def admit(tree, node, rob, flights, terr, net, slots):
+    """Whether the popped ``node`` passes the robust check, the hops flown, and the flights (``root_flights``; the
+    node's particles are added when it passes)."""
+    row_of, rows, states = flights
     depth = tree[5][node]
-    if rob[DEPTH] == 0 or node in flight_of or depth > rob[DEPTH]:
+    if rob[DEPTH] == 0 or depth > rob[DEPTH] or (node < row_of.shape[0] and row_of[node] >= 0):
         return True, 0, flights
-    here = flights[flight_of[tree[0][node]]]
+    here = states[row_of[tree[0][node]]]
     foothold = tree[2][node]
     heights, x0, cell, ditch, _ = terr
     n = here.shape[0]
@@ -76,25 +86,26 @@ def admit(tree, node, rob, flight_of, flights, terr, net, slots):
     slots[CONTROLLER] += t1 - t0
     slots[STEP_MAP] += now() - t1
     if passed:
-        row = len(flight_of)
-        if row == flights.shape[0]:
-            grown = np.empty((2 * row, n, 3))
-            grown[:row] = flights
-            flights = grown
-        flights[row] = ends
-        flight_of[node] = row
-    return passed, hops, flights
+        if node >= row_of.shape[0]:
+            wider = np.full(max(2 * row_of.shape[0], node + 1), -1, np.int64)
+            copy_head(wider, row_of, row_of.shape[0])
+            row_of = wider
+        states = grown(states, rows + 1)
+        copy_head(states[rows:], ends.reshape((1,) + ends.shape), 1)
+        row_of[node] = rows
+        rows += 1
+    return passed, hops, (row_of, rows, states)
 
 
-@njit(cache=True)
-def pop_admitted(tree, keys, ids, heap, goals, n_goals, target_x, rob, flight_of, flights, terr, net, slots):
+@compiled()
+def pop_admitted(tree, keys, ids, heap, goals, n_goals, target_x, rob, flights, terr, net, slots):
     """``pop_next`` with the robust check of each popped node (before it can be a goal or be expanded). Returns
     (the node to expand, -1 when none, FAILED_CHECK when a popped node failed it; the heap's size; the number of
     goals; hops flown; the flights array)."""
     hops = 0
     while heap > 0:
         i, heap = heap_pop(keys, ids, heap)
-        passed, flown, flights = admit(tree, i, rob, flight_of, flights, terr, net, slots)
+        passed, flown, flights = admit(tree, i, rob, flights, terr, net, slots)
         hops += flown
         if not passed:
             return FAILED_CHECK, heap, n_goals, hops, flights

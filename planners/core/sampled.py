@@ -8,9 +8,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.typed import Dict
 
+from drakeslip.compiled import compiled
 from drakeslip.fast_step import N_OUT, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, MODEL, N_SLOTS, STEP_MAP, now
@@ -18,19 +19,19 @@ from planners.core.grid import (AT_FAILURE, EDGE, MAX_ANGLE, MIN_SPEED, PAD, SPA
                                 WINDOW_END, aim_candidates, children_of, fly, grid_candidates)
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.robust import FAILED_CHECK, pop_admitted, root_flights
-from planners.core.tree import EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, grown, heap_push, new_tree
+from planners.core.tree import CAPACITY, EXHAUSTED, GO_ON, GOALS, add_children, budget_stop, grown, heap_push, new_tree
 
 # fields of the window settings tuple (``window_settings`` in planners/core/search.py)
 N_CELLS, ANCHOR, S0, LENGTH, SPEED, DITCH_FLOOR, SUBCELLS, MASK_DITCHES, TEMPERATURE, FLOOR = range(10)
 KEY_STRIDE = 1 << 20  # a (window start, bin under the body) pair's key: start * KEY_STRIDE + bin
 
 
-@njit(cache=True)
+@compiled()
 def _f32(x):
     return float(np.float32(x))
 
 
-@njit(cache=True)
+@compiled()
 def node_window(x, z, xdot, terr, win):
     """``planners.learned.inputs.encode_window`` for a terrain whose cells are the model's: (window start index,
     relative heights, ditch cells, apex features, bin under the body, x of the window's start)."""
@@ -64,7 +65,7 @@ def node_window(x, z, xdot, terr, win):
     return first, rel, ditch, features, s0_bin, x0 + first * cell
 
 
-@njit(cache=True)
+@compiled()
 def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, gates):
     """The model's probability of each candidate's bin for the step after the node at apex (x, z, xdot), 0 outside
     the window and (with ditch masking) in ditches; a window and bin seen before in the search reuse their
@@ -97,7 +98,7 @@ def node_probabilities(x, z, xdot, x_l, terr, win, model, keys, gates):
     return p
 
 
-@njit(cache=True)
+@compiled()
 def weighted_order(p, rng):
     """``planners.learned.lstm_guided.weighted_order``: the indices with p > 0 in a weighted draw's order."""
     idx = np.flatnonzero(p > 0)
@@ -108,17 +109,17 @@ def weighted_order(p, rng):
     return idx[np.argsort(keys)]
 
 
-@njit(cache=True)
+@compiled()
 def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, width, rob, target_x, weights,
                        reexpand, n_sequences, max_nodes, max_ode_calls, deadline):
     """``best_first`` with LSTM-guided sampling's expansion (grid settings ``s``, window settings ``win``, the
     model's arrays ``model``, random draws from ``rng``, ``width`` candidates flown at a time). Returns what
     ``grid_best_first`` returns."""
-    tree = new_tree(root[0], root[1], root[2], 256)
-    size = 1
-    keys, ids, heap = np.empty(256), np.empty(256, np.int64), 0
+    tree = new_tree(root[0], root[1], root[2])
+    size, node, heap = np.int64(1), np.int64(0), np.int64(0)   # int64 counters: see planners/core/search.py
+    keys, ids = np.empty(CAPACITY), np.empty(CAPACITY, np.int64)
     goals, expanded = np.empty(n_sequences, np.int64), np.empty(max_nodes, np.int64)
-    n_goals = ode_calls = expansions = n_expanded = 0  # expansions also count nodes that failed the check
+    n_goals = ode_calls = expansions = n_expanded = np.int64(0)  # expansions also count nodes that failed the check
     slots = np.zeros(N_SLOTS)
     window_keys = Dict.empty(types.int64, types.int64)
     gates = [np.empty(0)]  # typed by its first entry, which no key names
@@ -131,8 +132,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
     cand_x, cand_theta, cand_order = np.empty(1024), np.empty(1024), np.empty(1024, np.int64)
     n_cand = 0
     out = np.empty(N_OUT)
-    flight_of, flights = root_flights(rob)
-    node = 0
+    flights = root_flights(rob)
     stop = EXHAUSTED
     while True:
         spent = budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline)
@@ -213,7 +213,7 @@ def sampled_best_first(root, terr, p, net, sin_a, cos_a, s, win, model, rng, wid
             if more:  # back in the queue behind its own children (the root: behind everything)
                 keys, ids, heap = heap_push(keys, ids, heap, tree[4][node] + reexpand, node)
         node, heap, n_goals, hops, flights = pop_admitted(tree, keys, ids, heap, goals, n_goals, target_x, rob,
-                                                          flight_of, flights, terr, net, slots)
+                                                          flights, terr, net, slots)
         ode_calls += hops
         if node == FAILED_CHECK:  # closed: counts as an expansion with no children
             expansions += 1

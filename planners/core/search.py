@@ -6,32 +6,32 @@ import functools
 import math
 
 import numpy as np
-from numba import njit
 
+from drakeslip.compiled import compiled
 from planners.base import Problem
 from planners.core.clock import N_SLOTS
 from planners.core.grid import expand_grid
 from planners.core.sampled import sampled_best_first
 from planners.core.robust import FAILED_CHECK, pop_admitted, robust_arrays, root_flights
-from planners.core.tree import EXHAUSTED, GO_ON, GOALS, NO_LIMIT, add_children, budget_stop, new_tree
+from planners.core.tree import CAPACITY, EXHAUSTED, GO_ON, GOALS, NO_LIMIT, add_children, budget_stop, new_tree
 from planners.search.tree import FRICTION_MARGIN, REACH_ANGLES, REEXPAND_PENALTY, SearchResult, SearchTree
 
 STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")  # by the stop codes of planners/core/tree.py
 
 
-@njit(cache=True)
+@compiled()
 def grid_best_first(root, terr, p, net, sin_a, cos_a, s, rob, target_x, weights, n_sequences, max_nodes,
                     max_ode_calls, deadline):
     """``best_first`` with Step-space's grid expansion (``expand_grid``, settings ``s``). Returns (tree, its size,
     goals, expanded nodes, step-map calls, expansions, stop code, time slots)."""
-    tree = new_tree(root[0], root[1], root[2], 256)
-    size = 1
-    keys, ids, heap = np.empty(256), np.empty(256, np.int64), 0
+    tree = new_tree(root[0], root[1], root[2])
+    # the counters are int64 from the start: a literal 0 passed on to a compiled function compiles a second copy of it
+    size, node, heap = np.int64(1), np.int64(0), np.int64(0)
+    keys, ids = np.empty(CAPACITY), np.empty(CAPACITY, np.int64)
     goals, expanded = np.empty(n_sequences, np.int64), np.empty(max_nodes, np.int64)
-    n_goals = ode_calls = expansions = n_expanded = 0  # expansions also count nodes that failed the check
+    n_goals = ode_calls = expansions = n_expanded = np.int64(0)  # expansions also count nodes that failed the check
     slots = np.zeros(N_SLOTS)
-    flight_of, flights = root_flights(rob)
-    node = 0
+    flights = root_flights(rob)
     stop = EXHAUSTED
     while True:
         spent = budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline)
@@ -55,7 +55,7 @@ def grid_best_first(root, terr, p, net, sin_a, cos_a, s, rob, target_x, weights,
             tree, size, keys, ids, heap = add_children(tree, size, node, angles, footholds, apexes, d, target_x,
                                                        weights, keys, ids, heap)
         node, heap, n_goals, hops, flights = pop_admitted(tree, keys, ids, heap, goals, n_goals, target_x, rob,
-                                                          flight_of, flights, terr, net, slots)
+                                                          flights, terr, net, slots)
         ode_calls += hops
         if node == FAILED_CHECK:  # closed: counts as an expansion with no children
             expansions += 1

@@ -7,6 +7,7 @@ import time
 import numpy as np
 
 from drakeslip import ApexState, Terrain
+from drakeslip.compiled import compiling
 from drakeslip.terrain import DITCH_HEIGHT
 
 from planners.checkpoints import SUBCELL_WEIGHTS
@@ -215,8 +216,9 @@ def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
     if not _COMPILED:
         _COMPILED.append(True)
         problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
-        for robust in (None, Robustness()):
-            planner._search(problem, 1, robust)
+        with compiling():
+            for robust in (None, Robustness()):
+                planner._search(problem, 1, robust)
 
 
 def core_window_settings(problem, net: FootstepDistribution, temperature: float, floor: float):

@@ -24,6 +24,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from drakeslip.compiled import compiling
+
 from planners.base import Problem
 from planners.search.energy_graph import CellGraph, Coreach
 from planners.search.tree import SearchResult, SearchTree
@@ -58,9 +60,10 @@ def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes:
     stage = np.array([careful, MERGE_X * units.length, MERGE_XDOT * units.speed, RISK_COST * units.length,
                       graph.reach, graph.g, problem.target_x])
     sin_a, cos_a = reach_angles(params)
-    tree, size, goals, expanded, ode_calls, expansions, stop, slots = pruned_best_first(
-        np.array(problem.apex, dtype=np.float64), terrain_arrays(terrain), params.as_array(),
-        controller.arrays().astuple(), sin_a, cos_a, s, stage, cells, int(max_nodes), float(problem.deadline))
+    with compiling():   # compiled at its first use in a process: most plans never reach this stage
+        tree, size, goals, expanded, ode_calls, expansions, stop, slots = pruned_best_first(
+            np.array(problem.apex, dtype=np.float64), terrain_arrays(terrain), params.as_array(),
+            controller.arrays().astuple(), sin_a, cos_a, s, stage, cells, int(max_nodes), float(problem.deadline))
     problem.timing.add(slots)
     return SearchResult(tree_of(problem.apex, tree, size, goals, expanded), int(ode_calls), int(expansions),
                         STOPS[stop])

@@ -34,8 +34,8 @@ import math
 from dataclasses import dataclass, replace
 
 import numpy as np
-from numba import njit
 
+from drakeslip.compiled import compiled
 from drakeslip import SlipParams, Terrain
 from drakeslip.dynamics import FRICTION, MASS, STIFFNESS, height_at
 from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
@@ -147,9 +147,9 @@ class Robustness:
             hoppers[j, STIFFNESS], hoppers[j, MASS] = params.stiffness * ks, params.mass * ms
             hoppers[j, FRICTION] = friction
         solid = terrain.heights > terrain.ditch_height
-        worlds = Worlds(hoppers,
-                        np.stack([np.where(solid, terrain.heights + rise, terrain.heights)
-                                  for *_, (rise, _) in variants]),
+        heights = np.stack([np.where(solid, terrain.heights + rise, terrain.heights) for *_, (rise, _) in variants])
+        heights.setflags(write=False)   # as a Terrain's: the compiled step map is compiled once, for read-only heights
+        worlds = Worlds(hoppers, heights,
                         np.array([terrain.x0 + shift for *_, (_, shift) in variants], dtype=np.float64),
                         float(terrain.cell), float(terrain.ditch_height))
         errors = np.array([e for e, *_ in rows])
@@ -220,7 +220,7 @@ class Particles:
 NO_FAN = np.zeros(0)  # no way-on check
 
 
-@njit(cache=True)
+@compiled()
 def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch_height, foothold, seen_heights,
                   seen_x0, landing, min_speed, clearance, edge_margin, fan, lookahead, lookahead_depth):
     """Robustness.fly's flights, compiled: particle i hops from ``states[i]`` with ``angles[i]`` in its world
@@ -238,7 +238,7 @@ def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch
     for i in range(n):
         w = world[i]
         step_one(states[i, 0], states[i, 1], states[i, 2], angles[i], params[w], heights[w], x0[w], cell,
-                 ditch_height, STANCE_STEPS, out)
+                 ditch_height, np.int64(STANCE_STEPS), out)
         hops += 1
         x, z, xdot, touchdown = out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_TD_X]
         ends[i, 0], ends[i, 1], ends[i, 2] = x, z, xdot
@@ -258,7 +258,7 @@ def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch
     return True, ends, hops
 
 
-@njit(cache=True)
+@compiled()
 def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_heights, seen_x0, shift, min_speed,
             edge_margin, out):
     """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex``, hops flown) for a hopper
@@ -278,7 +278,7 @@ def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_h
             angle[level] += 1
             continue
         step_one(state[level, 0], state[level, 1], state[level, 2], fan[angle[level]], p, heights, x0, cell,
-                 ditch_height, STANCE_STEPS, out)
+                 ditch_height, np.int64(STANCE_STEPS), out)
         hops += 1
         if not (out[OUT_CODE] == OK and out[OUT_XDOT] >= min_speed
                 and clear_of_edges_at(seen_heights, seen_x0, cell, out[OUT_TD_X] - shift, edge_margin)):
@@ -294,13 +294,13 @@ def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_h
     return found, hops
 
 
-@njit(cache=True)
+@compiled()
 def same_level(heights, x0, cell, a, b):
     """``Terrain.same_level`` on one pair of points, compiled."""
     return abs(height_at(heights, x0, cell, a) - height_at(heights, x0, cell, b)) <= LEVEL_TOLERANCE
 
 
-@njit(cache=True)
+@compiled()
 def clear_of_edges_at(heights, x0, cell, x, margin):
     """``planners.search.tree.clear_of_edges`` at one point, compiled."""
     return same_level(heights, x0, cell, x - margin, x) and same_level(heights, x0, cell, x + margin, x)

@@ -11,6 +11,7 @@ from dataclasses import replace
 import numpy as np
 
 from drakeslip import StepLengthController, Terrain, step, step_batch
+from drakeslip.compiled import compiling
 from drakeslip.stepmap import BACKENDS
 
 from drakeslip.units import HopperUnits, units_of
@@ -304,17 +305,18 @@ class StepSpacePlanner(Planner):
 
 @functools.cache
 def warm_up_core() -> None:
-    """Compile (or load from numba's cache) the planning core's grid search and pruned stage once per process, so
-    their JIT start-up is not charged to a plan's time budget."""
+    """Compile (or load from numba's cache) the planning core's grid search once per process, so its JIT start-up is
+    not charged to a plan's time budget. The pruned stage, which a plan reaches only where the searches find
+    nothing, is compiled when first used (``planners.search.pruned``)."""
     from planners.core.search import grid_search
     from planners.base import Budget
 
     planner = StepSpacePlanner(max_nodes=1, step_map="drake")  # a planner that does not warm up the core itself
     problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
-    for robust in (None, Robustness()):
-        grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
-                    planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
-    pruned_search(problem, planner.core_settings(problem, GRID_SPACING), planner.controller, max_nodes=1)
+    with compiling():
+        for robust in (None, Robustness()):
+            grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
+                        planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
 
 
 def attempt_name(robustness: Robustness | None) -> str:

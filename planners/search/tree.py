@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drakeslip import Terrain, step_batch
+from drakeslip.compiled import compiling
 
 from planners.base import Budget, FootstepSequence, Plan, Planner, Problem
 
@@ -131,7 +132,8 @@ def clear_of_edges(terrain: Terrain, x: np.ndarray, margin: float) -> np.ndarray
 @functools.cache
 def warm_up() -> None:
     """Load the compiled step map once per process, so JIT start-up is not charged to a plan's time budget."""
-    step_batch((0.0, 1.0, 1.0), [0.1], Terrain.flat())
+    with compiling():
+        step_batch((0.0, 1.0, 1.0), [0.1], Terrain.flat())
 
 
 def isolation(footholds: np.ndarray, ok: np.ndarray, at_failure: float = ISOLATION_AT_FAILURE) -> np.ndarray:

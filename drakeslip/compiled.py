@@ -1,4 +1,8 @@
-"""Numba's on-disk cache kept true to the sources it was compiled from.
+"""How the toolkit's compiled code is compiled and kept.
+
+``compiled`` is numba's ``njit`` with the options every compiled function here shares: machine code cached on disk,
+and no C function-pointer wrapper (no compiled code here takes a function as a pointer; the wrapper doubles what
+numba compiles for a function taking the core's tuples of arrays).
 
 numba's ``cache=True`` checks only the file that defines the cached function: a compiled search in
 planners/core/grid.py keeps the step map of drakeslip/fast_step.py (and any global constant) it was compiled with
@@ -9,11 +13,16 @@ deleted and numba compiles anew. It covers numba's default cache, the ``__pycach
 read-only install, whose cache numba keeps elsewhere, is not touched."""
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import os
+import sys
+import threading
 from pathlib import Path
 
 STAMP = "numba-sources.sha256"
+ANNOUNCE_AFTER_S = 1.0   # loading machine code from the cache takes milliseconds; compiling it, seconds
+_announced = threading.Event()
 
 
 def sources_digest(roots) -> str:
@@ -47,3 +56,32 @@ def clear_when_sources_change(package_dir, sources) -> bool:
     except OSError:  # a read-only install: numba caches elsewhere, and nothing here was compiled
         return False
     return True
+
+
+def compiled(**options):
+    """numba's ``njit`` decorator as the toolkit compiles (cached, no C function-pointer wrapper), with ``options``
+    (``fastmath``, ``parallel``, ...) added. numba is imported here, not with this module: ``import drakeslip``
+    stays light."""
+    from numba import njit
+
+    return njit(cache=True, no_cfunc_wrapper=True, **options)
+
+
+@contextlib.contextmanager
+def compiling():
+    """Run the block (a first call of compiled code) saying in one line on stderr, once per process, that the
+    toolkit's code is being compiled when it takes longer than ANNOUNCE_AFTER_S: on a machine's first run numba
+    compiles it (tens of seconds), later runs load it from the cache in milliseconds."""
+    def announce():
+        if not _announced.is_set():
+            _announced.set()
+            print("compiling the planning code for this machine, once (later runs load it from numba's cache) ...",
+                  file=sys.stderr, flush=True)
+
+    timer = threading.Timer(ANNOUNCE_AFTER_S, announce)
+    timer.daemon = True
+    timer.start()
+    try:
+        yield
+    finally:
+        timer.cancel()
