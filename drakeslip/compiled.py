@@ -2,7 +2,12 @@
 
 ``compiled`` is numba's ``njit`` with the options every compiled function here shares: machine code cached on disk,
 and no C function-pointer wrapper (no compiled code here takes a function as a pointer; the wrapper doubles what
-numba compiles for a function taking the core's tuples of arrays).
+numba compiles for a function taking the core's tuples of arrays). A machine's first run compiles everything it
+calls, so what costs compile time is kept out of it: a helper of one or two compiled callers is inlined into them
+(``inline="always"``: one compiled unit instead of a function with its own entry points and machine code), a
+counter passed on starts as ``np.int64`` (a literal argument compiles a second copy of the callee), read-only and
+writable arrays are not mixed in one argument, and elements are assigned one by one where a slice or a mask
+assignment would compile numba's shape checks and their messages.
 
 numba's ``cache=True`` checks only the file that defines the cached function: a compiled search in
 planners/core/grid.py keeps the step map of drakeslip/fast_step.py (and any global constant) it was compiled with

@@ -110,6 +110,16 @@ def _tanh_rows(x, loop, data):
 
 
 @compiled()
+def _plus_row(m, row):
+    """``m + row`` (numpy's broadcast of a row over a matrix's rows), in place: the same sums, without the broadcast's
+    shape checks to compile."""
+    for i in range(m.shape[0]):
+        for j in range(m.shape[1]):
+            m[i, j] += row[j]
+    return m
+
+
+@compiled()
 def aim_rows(apexes, footholds, grounds, net):
     """The leg angle for each row: apex (x, z, xdot), desired foothold and the ground's height there (``net``:
     ``ControllerArrays.astuple()``); the network's features (speed, drop, offset) are scaled to the trained hopper's
@@ -117,15 +127,16 @@ def aim_rows(apexes, footholds, grounds, net):
     w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle, leg, gravity, refine = net[:13]
     loop, data = net[13], net[14]
     n = footholds.shape[0]
-    feats = np.empty((n, 3))
+    feats, x = np.empty((n, 3)), np.empty((n, 3))
     for i in range(n):
         feats[i, 0] = apexes[i, 2]
         feats[i, 1] = apexes[i, 1] - grounds[i]
         feats[i, 2] = footholds[i] - apexes[i, 0]
-    x = (feats / scale - mean) / std
-    x = _tanh_rows(np.dot(x, w_in) + b_in, loop, data)
+        for j in range(3):   # element by element, as numpy's broadcast computes each: (feats / scale - mean) / std
+            x[i, j] = (feats[i, j] / scale[j] - mean[j]) / std[j]
+    x = _tanh_rows(_plus_row(np.dot(x, w_in), b_in), loop, data)
     for layer in range(w_hidden.shape[0]):
-        x = _tanh_rows(np.dot(x, w_hidden[layer]) + b_hidden[layer], loop, data)
+        x = _tanh_rows(_plus_row(np.dot(x, w_hidden[layer]), b_hidden[layer]), loop, data)
     theta = np.empty(n)
     head = np.dot(x, w_head.reshape(-1, 1))
     for i in range(n):

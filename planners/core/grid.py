@@ -19,7 +19,7 @@ from planners.search.robust import clear_of_edges_at
 SPACING, PAD, UNTIL, EDGE, MAX_ANGLE, TOLERANCE, MIN_SPEED, WINDOW_END, AT_FAILURE = range(9)
 
 
-@compiled()
+@compiled(inline="always")
 def reach_bounds(x, z, v, terr, p, sin_a, cos_a):
     """``planners.search.step_space.touchdown_range`` with the reach angles' sines and cosines given."""
     heights, x0, cell, ditch, solid_min = terr
@@ -41,7 +41,7 @@ def reach_bounds(x, z, v, terr, p, sin_a, cos_a):
     return lo, hi
 
 
-@compiled()
+@compiled(inline="always")
 def grid_candidates(x, z, v, terr, p, sin_a, cos_a, spacing, pad, until):
     """The desired footholds x0 + (i + 1/2) spacing within reach (padded by ``pad``), up to ``until``."""
     lo, hi = reach_bounds(x, z, v, terr, p, sin_a, cos_a)
@@ -54,31 +54,38 @@ def grid_candidates(x, z, v, terr, p, sin_a, cos_a, spacing, pad, until):
     return out
 
 
-@compiled()
+@compiled(inline="always")
 def aim_candidates(x, z, v, x_l, terr, net, edge_margin, max_angle):
     """The controller's leg angle from apex (x, z, v) to each of ``x_l``, NaN where the foothold is not admissible
     (a ditch cell, near an edge, or reached only outside the friction cone): one controller call for the admissible
     ones, as ``StepSpacePlanner.aim`` makes it, so the angles are its to the bit."""
     heights, x0, cell, ditch, _ = terr
     n = x_l.shape[0]
-    grounds = np.empty(n)
-    keep = np.zeros(n, np.bool_)
+    kept, kept_x, kept_ground = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    k = 0
     for i in range(n):
-        grounds[i] = height_at(heights, x0, cell, x_l[i])
-        keep[i] = grounds[i] > ditch and clear_of_edges_at(heights, x0, cell, x_l[i], edge_margin)
-    theta = np.full(n, math.nan)
-    k = np.count_nonzero(keep)
+        ground = height_at(heights, x0, cell, x_l[i])
+        if ground > ditch and clear_of_edges_at(heights, x0, cell, x_l[i], edge_margin):
+            kept[k], kept_x[k], kept_ground[k] = i, x_l[i], ground
+            k += 1
+    theta = np.empty(n)
+    for i in range(n):
+        theta[i] = math.nan
     if k:
+        # element by element, not by masks: a masked assignment compiles numba's shape checks and their messages
         apexes = np.empty((k, 3))
-        apexes[:, 0], apexes[:, 1], apexes[:, 2] = x, z, v
-        theta[keep] = aim_rows(apexes, x_l[keep], grounds[keep], net)
+        for j in range(k):
+            apexes[j, 0], apexes[j, 1], apexes[j, 2] = x, z, v
+        aims = aim_rows(apexes, kept_x[:k], kept_ground[:k], net)
+        for j in range(k):
+            theta[kept[j]] = aims[j]
     for i in range(n):
         if not abs(theta[i]) < max_angle:
             theta[i] = math.nan
     return theta
 
 
-@compiled()
+@compiled(inline="always")
 def fly(x, z, v, theta, x_l, terr, p, tolerance, min_speed, out):
     """One step-map call; whether it succeeds, lands within ``tolerance`` of ``x_l`` and keeps ``min_speed`` (the
     next apex is left in ``out``)."""
@@ -87,7 +94,7 @@ def fly(x, z, v, theta, x_l, terr, p, tolerance, min_speed, out):
     return out[OUT_CODE] == OK and abs(out[OUT_TD_X] - x_l) < tolerance and out[OUT_XDOT] >= min_speed
 
 
-@compiled()
+@compiled(inline="always")
 def isolation(x_l, ok, at_failure):
     """``planners.search.tree.isolation``: D for each successful candidate, in candidate order."""
     idx = np.flatnonzero(ok)
@@ -105,7 +112,7 @@ def isolation(x_l, ok, at_failure):
     return d
 
 
-@compiled()
+@compiled(inline="always")
 def children_of(x_l, theta, ok, apexes, window_end, at_failure):
     """The successful candidates inside the window as (angles, footholds, apexes, isolation), and whether a
     successful one lands past the window (``StepSpacePlanner.children``)."""
@@ -124,7 +131,7 @@ def children_of(x_l, theta, ok, apexes, window_end, at_failure):
             continue
         if x_l[i] < window_end:
             angles[c], footholds[c], d[c] = theta[i], x_l[i], d_all[rank]
-            kid_apexes[c] = apexes[i]
+            kid_apexes[c, 0], kid_apexes[c, 1], kid_apexes[c, 2] = apexes[i, 0], apexes[i, 1], apexes[i, 2]
             c += 1
         rank += 1
     return angles, footholds, kid_apexes, d, beyond

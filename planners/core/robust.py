@@ -45,7 +45,7 @@ def robust_arrays(robustness, problem) -> tuple:
             int(robustness.lookahead_depth))
 
 
-@compiled()
+@compiled(inline="always")
 def root_flights(rob):
     """The particles' flights: (each node's row in ``states``, -1 where it has none; how many rows are set; the
     particles' states (rows, P, 3)), holding the root's particles where the robust check flies any (depth > 0).
@@ -59,7 +59,7 @@ def root_flights(rob):
     return row_of, rows, states
 
 
-@compiled()
+@compiled(inline="always")
 def admit(tree, node, rob, flights, terr, net, slots):
     """Whether the popped ``node`` passes the robust check, the hops flown, and the flights (``root_flights``; the
     node's particles are added when it passes)."""

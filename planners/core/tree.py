@@ -19,7 +19,7 @@ NO_LIMIT = -1
 CAPACITY = 256   # the nodes a new tree and frontier have room for before they first grow
 
 
-@compiled()
+@compiled(inline="always")
 def budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline):
     """The search's termination conditions, checked before each expansion: the stop code of the first budget
     spent (nodes, step-map calls, the wall-clock deadline), or GO_ON."""
@@ -70,7 +70,7 @@ def copy_head(dst, src, n):
         flat_dst[i] = flat_src[i]
 
 
-@compiled()
+@compiled(inline="always")
 def reserve(tree, size, extra):
     """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed)."""
     parent, angle, foothold, apex, cost, depth = tree
@@ -87,12 +87,12 @@ def reserve(tree, size, extra):
     return larger
 
 
-@compiled()
+@compiled(inline="always")
 def _before(keys, ids, a, b):
     return keys[a] < keys[b] or (keys[a] == keys[b] and ids[a] < ids[b])
 
 
-@compiled()
+@compiled(inline="always")
 def heap_push(keys, ids, size, key, node):
     """Push (key, node); returns the heap's arrays (grown when full) and its new size."""
     if size == keys.shape[0]:
@@ -112,7 +112,7 @@ def heap_push(keys, ids, size, key, node):
     return keys, ids, size + 1
 
 
-@compiled()
+@compiled(inline="always")
 def heap_pop(keys, ids, size):
     """Remove the least (key, node); returns its node and the heap's new size."""
     node = ids[0]
@@ -132,7 +132,7 @@ def heap_pop(keys, ids, size):
         i = least
 
 
-@compiled()
+@compiled(inline="always")
 def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weights, keys, ids, heap):
     """Add a node's children to the tree, each with its cost, and push them on the frontier; returns the tree,
     its size and the frontier."""

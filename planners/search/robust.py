@@ -258,7 +258,7 @@ def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch
     return True, ends, hops
 
 
-@compiled()
+@compiled(inline="always")
 def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_heights, seen_x0, shift, min_speed,
             edge_margin, out):
     """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex``, hops flown) for a hopper

@@ -22,7 +22,7 @@ from planners.search.pruned import pruned_search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
-                                  run_attempts, warm_up)
+                                  run_attempts)
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
 GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
@@ -107,8 +107,7 @@ class StepSpacePlanner(Planner):
         self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
         self.min_speed = None if min_speed is None else float(min_speed)
         self.edge_margin = None if edge_margin is None else float(edge_margin)
-        warm_up()
-        if step_map == "fast":
+        if step_map == "fast":   # the core holds its own step map; the Python search simulates on Drake
             warm_up_core()
 
     def spacings(self, units: HopperUnits) -> tuple:
