@@ -46,11 +46,22 @@ class FailureMode(enum.IntEnum):
     SLIP = 3            # during stance the leg force leaves the friction cone: |x-xf| > mu (z-zf)
     BOTTOM_OUT = 4      # the leg compresses below min_leg_length
     TRIP = 5            # at apex the commanded foot position is not above the terrain
-    STALL = 6           # no forward progress: xdot reaches 0, no apex follows liftoff, or the hop times out
+    STALL = 6           # no forward progress: xdot reaches 0, or no apex follows liftoff
+    # Not a guard of the model: the hop outlasted the Drake simulator's per-hop limit (``HopperUnits.hop_seconds``)
+    # before any guard fired, so the run was cut, not failed. The fast backend, which has no such limit, never
+    # gives it.
+    TIMEOUT = 7
 
     @classmethod
     def from_code(cls, code: int) -> "FailureMode | None":
         return None if code == 0 else cls(int(code))
+
+
+class SimulationCrash(RuntimeError):
+    """A simulation that stopped before it could say what the hopper does: its integrator raised, or the hopper's
+    derivatives were not finite (``drakeslip.simulation``), or, where a check needs every hop to end, a hop timed out
+    (``FailureMode.TIMEOUT``). Not a failure of the hopper and not a verdict on its commands: the scripts report it
+    in one line with exit status 3 (``drakeslip.jobs.cli.CRASHED``)."""
 
 
 @dataclass(frozen=True)
