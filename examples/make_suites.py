@@ -99,15 +99,20 @@ def draw(ap, args, argv) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
-    cli.announce(argv)
 
     from planners.formats.suite import save_suite
     from planners.formats.suite_draw import draw_suite
 
-    for k, family in enumerate(args.families):
-        seed = COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
-        suite = draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
-                           heights=args.heights, name=family if args.seed is None else f"{family}-{seed}")
+    seeds = [COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
+             for k, family in enumerate(args.families)]
+    try:   # every suite drawn before any is written: a start outside the bounds is refused first
+        suites = [draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
+                             heights=args.heights, name=family if args.seed is None else f"{family}-{seed}")
+                  for family, seed in zip(args.families, seeds)]
+    except ValueError as error:
+        ap.error(str(error))
+    cli.announce(argv)
+    for suite, seed in zip(suites, seeds):
         path = args.out / f"{suite.name}.json"
         save_suite(suite, path)
         print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")

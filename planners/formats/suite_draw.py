@@ -43,6 +43,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.hopper_file import Hopper, check_same_hopper, paper_hopper
 from drakeslip.params import check_number
+from drakeslip.state import check_start
 from drakeslip.terrain import DITCH_WIDTH, TERRAIN_FAMILIES
 from drakeslip.terrain_file import gaps_of, load_terrain, terrain_with_gaps
 from drakeslip.units import PAPER, units_of
@@ -226,7 +227,10 @@ def profile_paths(profiles) -> list[Path]:
 
 def suite_for(hopper: Hopper, name: str, goal_x: float, friction: float | None, cases) -> Suite:
     """A Suite of ``cases`` for ``hopper``, which it records unless it is the paper's; ValueError when two cases
-    share an id (start speeds or heights that agree to the 6 digits an id shows)."""
+    share an id (start speeds or heights that agree to the 6 digits an id shows) or a start lies outside the bounds
+    in the hopper's units (``drakeslip.state.check_start``)."""
+    for case in cases:
+        check_start(case.apex, case.terrain, hopper.params, f"case {case.id!r}: the start apex")
     ids = [c.id for c in cases]
     if len(set(ids)) != len(ids):
         twice = next(i for i in ids if ids.count(i) > 1)
