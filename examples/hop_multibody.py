@@ -11,12 +11,15 @@ hopper (``drakeslip/multibody/hopper.sdf``) and a terrain's boxes, the ``HopperC
 
 then runs the Diagram in one Simulator from an apex until the body passes the goal, and prints each plan the
 planner made at an apex. Add your own systems (an estimator, a logger, a visualizer) the same way. Exit status
-0 when the body reaches the goal, 1 otherwise, 2 on bad input.
+0 when the body reaches the goal, 1 otherwise, 2 on bad input, 3 a simulation crashed (one line naming what
+failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
 import argparse
 import sys
+
+from drakeslip.jobs import cli
 
 OK, FAILED = 0, 1
 
@@ -92,6 +95,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     return planner_system, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)

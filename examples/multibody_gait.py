@@ -5,13 +5,16 @@
 The controller places the foot by Raibert's rule for each speed (no footholds) and holds the energy of an apex
 0.62 m high; the largest pitch is printed over all hops and after the first SETTLING_HOPS (the start, body level
 at an apex already at speed, is not the gait's own rhythm). Exit status: 0 when every speed hops --hops hops with
-no failure, 1 otherwise, 2 on bad input.
+no failure, 1 otherwise, 2 on bad input,
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
 import argparse
 import sys
 import time
+
+from drakeslip.jobs import cli
 
 OK, FAILED = 0, 1
 SETTLING_HOPS = 5   # the hops from the start (body level at an apex already at speed) to the gait's own rhythm
@@ -33,6 +36,7 @@ def _hops(text: str) -> int:
     return int(text)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.ArgumentDefaultsHelpFormatter)

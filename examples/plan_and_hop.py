@@ -20,7 +20,8 @@ is the paper's setting on a perfect robot.
 Writes a figure of the terrain, the body path, the planned and the executed footholds; --html also writes a
 Meshcat replay of the run (self-contained HTML: the executed footholds against the planned ones, the plans'
 predicted apexes, the failure marked and named).
-Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error.
+Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error,
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -38,6 +39,7 @@ from planners.registry import check_label, loop_settings
 FIGURE = (".png", ".pdf", ".svg")
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     cli.add_hopper(ap)

@@ -2,14 +2,17 @@
 the same everywhere, and the exit codes.
 
 Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop); 2 a usage or input
-error, reported in one line before any work starts. Ctrl-C (SIGINT) ends a script with one line on stderr saying
-what it saved (``interrupted``) and no worker process left behind; the process then ends by SIGINT, as an
-interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops a script that runs it. Heavy
-libraries (torch, pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast.
+error, reported in one line before any work starts; 3 a simulation that crashed or timed out (its integrator raised, its
+derivatives were NaN, or a hop outlasted the simulator's limit: ``drakeslip.state.SimulationCrash``), reported in one
+line naming what failed (``reports_crashes``): no verdict on the plan or the hopper. Ctrl-C (SIGINT) ends a script with
+one line on stderr saying what it saved (``interrupted``) and no worker process left behind; the process then ends by
+SIGINT, as an interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops a script that runs it.
+Heavy libraries (torch, pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast.
 """
 from __future__ import annotations
 
 import argparse
+import functools
 import math
 import os
 import shlex
@@ -18,10 +21,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from drakeslip.bounds import Bound
+from drakeslip.state import SimulationCrash
 from drakeslip.jobs.executors import make_executor
 from drakeslip.jobs.runner import saved_so_far
 
-OK, FAILED, USAGE = 0, 1, 2
+OK, FAILED, USAGE, CRASHED = 0, 1, 2, 3
 
 
 class Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
@@ -43,6 +47,19 @@ class ArgumentParser(argparse.ArgumentParser):
 
     def error(self, message: str):
         self.exit(USAGE, f"{self.prog}: error: {message}\n")
+
+
+def reports_crashes(main):
+    """A script's ``main(argv)``, with a simulation that crashed or timed out (``SimulationCrash``) reported as one
+    line on stderr, ``SCRIPT: simulation stopped: WHAT``, and exit status CRASHED instead of a traceback."""
+    @functools.wraps(main)
+    def run(argv=None):
+        try:
+            return main(argv)
+        except SimulationCrash as crash:
+            sys.stderr.write(f"{Path(sys.argv[0]).name}: simulation stopped: {crash}\n")
+            return CRASHED
+    return run
 
 
 def report_interrupts() -> None:
