@@ -211,7 +211,10 @@ def write_figure(sim, result, terrain, args):
 
 
 def write_html(sim, result, plans, args):
-    """The Meshcat replay: every executed plan's commanded footholds and predicted apexes over the run."""
+    """The Meshcat replay: every executed plan's commanded footholds and predicted apexes over the run (a plan of
+    the heuristic or lstm planner predicts none: its apexes are NaN rows)."""
+    import numpy as np
+
     from drakeslip.meshcat_replay import write_replay
 
     if sim is None:
@@ -220,7 +223,7 @@ def write_html(sim, result, plans, args):
     executed = [(plan, len(record["executed"])) for plan, record in zip(plans, result["plans"]) if "executed" in record]
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
     write_replay(sim, args.html, planned_footholds=[x for plan, k in executed for x in plan.footholds[:k]],
-                 predicted_apexes=[a for plan, k in executed for a in plan.apexes[:k]],
+                 predicted_apexes=[a for plan, k in executed for a in plan.apexes[:k] if np.all(np.isfinite(a))],
                  title=f"plan_and_hop.py: {args.planner} on {where(args)}, {outcome}")
     print(f"replay: {args.html}")
 
