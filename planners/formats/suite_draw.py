@@ -128,7 +128,14 @@ def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS, speeds=PAPER_SPEEDS)
              * min(1.0, math.atan(params.friction) / math.atan(PAPER.friction)))
     mine = tuple((z * units.length * f, v * speed) for z, f in zip(heights, factors) for v in speeds)
     papers = tuple((z, v) for z in heights for v in speeds)
-    ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
+    if mine == papers:   # the paper's hopper: its own stride, whatever it is
+        ditch = 1.0
+    elif stride(PAPER, papers) == 0.0:
+        raise ValueError(f"no start of heights {list(heights)} m and speeds {list(speeds)} m/s takes the paper's hopper "
+                         "two hops on flat ground (its spring bottoms out, or it stalls): the suite's ditch widths "
+                         "and course, scaled by that stride, have nothing to scale")
+    else:
+        ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
     return SuiteScales(units.length, speed, units.length * climb, factors, units.length * ditch)
 
 
@@ -160,6 +167,9 @@ def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains:
     hopper's."""
     if family not in TERRAIN_FAMILIES:
         raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+    for z in heights:   # the paper's starts inside the start bounds: made the hopper's, so are its own
+        for v in speeds:
+            check_start((START_X, z, v), Terrain.flat(), PAPER, f"the paper's start at {v:g} m/s: its apex")
     hopper = hopper or paper_hopper()
     scales = suite_scales(hopper.params, tuple(heights), tuple(speeds))
     start_x = START_X * scales.length
