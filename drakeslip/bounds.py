@@ -8,6 +8,25 @@ legs of 0.3-1.2 m, dimensionless stiffness k L0 / (m g) of 10-40, friction 0.6-1
 1 m cells, speeds of a few m/s), and each keeps the work of a call finite and small: a 1e308 m/s apex would size
 a planner's candidate footholds by its reach (terabytes), a 1e-9 m cell a perception window of 1e10 cells, and
 a 1e308 stiffness or gravity overflows the integrator.
+
+A start apex a user gives (a suite's or a plan file's, the scripts' --height and --speed:
+``drakeslip.state.check_start``) also lies within two bounds in the hopper's own units, the units of
+``drakeslip.units`` (lengths in leg lengths L0, speeds in sqrt(g L0)), as what the code does depends on them:
+
+* APEX_HEIGHT: at most 10 leg lengths above the ground under it (5 m for the paper's hopper). A hopper of the range
+  above survives a drop of at most about 3 leg lengths (a spring of k L0 / (m g) = 40 compressed by 40 % of the
+  leg stores 3.2 body weights times L0), so no start a hopper lives through is refused.
+* APEX_SPEED: at most 5 sqrt(g L0) forward or back (11 m/s for the paper's hopper; a Froude number v^2 / (g L0)
+  of 25, 2.5 times a human sprinter's; the suites' fastest start, 3 m/s, is 1.35 sqrt(g L0)).
+
+Together they keep the energy height z + xdot^2 / (2 g) within 22.5 leg lengths of the ground, which sizes the
+two things that grow with it: the cell graph of the energy argument (``planners.search.energy_graph``) spans
+twice that height ahead of the start (a 1e4 m apex asked for a 298 GiB matrix), and a hop's flights take up to
+2 sqrt(2 x 22.5) = 13.4 time units sqrt(L0 / g), inside the Drake simulators' per-hop limit of 22 units
+(``drakeslip.units.HOP_SECONDS``, 5 s for the paper's hopper). An apex reached during a run is not checked
+against them (a hop over a step down is higher above the ground under it than its start): the code stays right
+there, within the bounds above, by itself (the cell graph refuses more than ``MAX_CELLS`` cells, and the planners
+then skip the stage that needs it; a hop past the limit is a TIMEOUT, not a physical failure).
 """
 from __future__ import annotations
 
@@ -37,6 +56,10 @@ POSITION = Bound(-1e4, 1e4, "m")           # x and z of an apex, a foothold, a g
 TERRAIN_START = Bound(-1e5, 1e5, "m")
 CELL = Bound(1e-3, 10.0, "m")              # a millimetre to ten metres
 HORIZON = Bound(0.0, 1e3, "m")             # how far ahead of the body a planner plans: its grids grow with it
+# A start apex, in the hopper's units (the module doc): its height above the ground under it, in leg lengths, and
+# its forward speed, in sqrt(g L0)
+APEX_HEIGHT = Bound(0.0, 10.0, "leg lengths")
+APEX_SPEED = Bound(-5.0, 5.0, "sqrt(g L0)")
 # The most cells a perception window holds: an 11 m window of 1 mm cells has 11,000; a window of more cells than
 # this comes from a window size no robot perceives.
 MAX_WINDOW_CELLS = 1_000_000

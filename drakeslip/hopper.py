@@ -13,7 +13,7 @@ from pydrake.systems.framework import (BasicVector, EventStatus, LeafSystem, Unr
 
 from drakeslip import dynamics as dyn
 from drakeslip.params import SlipParams
-from drakeslip.state import ApexState, FailureMode
+from drakeslip.state import ApexState, FailureMode, SimulationCrash
 from drakeslip.terrain import Terrain
 
 SlipState = namedview("SlipState", ["x", "z", "xdot", "zdot"])
@@ -138,6 +138,10 @@ class SlipHopper(LeafSystem):
             d = (s.xdot, s.zdot, 0.0, -self.params.gravity)  # ballistic: only gravity acts on the body
         else:
             d = (0.0, 0.0, 0.0, 0.0)  # FAILED / HALTED: frozen
+        if not (math.isfinite(d[0]) and math.isfinite(d[1]) and math.isfinite(d[2]) and math.isfinite(d[3])):
+            # an error-controlled integrator would shrink its step for ever on them: stop the run, saying where
+            raise SimulationCrash(f"non-finite derivatives ({', '.join(f'{v:g}' for v in d)}) in {Mode(mode).name} "
+                                  f"at t={context.get_time():.6g} s, state ({', '.join(f'{v:g}' for v in s[:])})")
         derivatives.get_mutable_vector().SetFromVector(d)
 
     def DoGetWitnessFunctions(self, context):

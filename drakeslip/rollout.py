@@ -19,11 +19,11 @@ from drakeslip.params import SlipParams
 from drakeslip.state import ApexState, FailureMode, check_apex, check_leg_angle
 from drakeslip.stepmap import step_batch
 from drakeslip.terrain import Terrain
+from drakeslip.units import units_of
 
 BACKENDS = ("fast", "drake", "multibody")
 # A noisy command is clipped just short of a horizontal leg, the step map's domain; such a hop fails anyway.
 ANGLE_LIMIT = math.pi / 2 - 1e-9
-HOP_SECONDS = 5.0  # a hop longer than this is a STALL (drakeslip.simulation), so n hops end within 5 (n + 1) s
 
 
 @dataclass
@@ -223,8 +223,8 @@ def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrat
     def policy(apex, hop):
         return None if hops is not None and hop >= hops else command.one(draw, hop, apex)
 
-    if max_time is None:
-        max_time = HOP_SECONDS * (hops + 1) if hops is not None else 60.0
+    if max_time is None and hops is not None:   # each hop ends within the per-hop limit, so n hops within n + 1
+        max_time = units_of(params).hop_seconds * (hops + 1)
     sim = simulate(start, policy, terrain, params, max_hops=hops, max_time=max_time, log=log, integrator=integrator)
     return Rollout(list(sim.footholds), sim.apexes, list(sim.leg_angles), sim.failure, sim.failed_hop,
                    tuple(sim.failure_event.state) if sim.failure_event is not None else None,

@@ -12,8 +12,9 @@ from pydrake.systems.primitives import LogVectorOutput
 
 from drakeslip.hopper import ApexPolicy, HybridEvent, HybridState, Mode, SlipHopper
 from drakeslip.params import SlipParams
-from drakeslip.state import ApexState, FailureMode, StepResult, check_apex
+from drakeslip.state import ApexState, FailureMode, SimulationCrash, StepResult, check_apex
 from drakeslip.terrain import Terrain
+from drakeslip.units import HOP_SECONDS, RUN_SECONDS, units_of
 
 
 @dataclass(frozen=True)
@@ -84,13 +85,16 @@ def _policy_from(leg_angles) -> Callable:
 
 
 def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | None = None,
-             params: SlipParams | None = None, max_hops: int | None = None, max_time: float = 60.0,
-             max_hop_time: float = 5.0, integrator: IntegratorConfig | None = None,
+             params: SlipParams | None = None, max_hops: int | None = None, max_time: float | None = None,
+             max_hop_time: float | None = None, integrator: IntegratorConfig | None = None,
              log: bool = True, add_to: Callable | None = None) -> SimulationResult:
     """Simulate hops from ``apex`` in Drake until the first failure, the commands run out, ``max_hops``
-    apexes are reached, or ``max_time``. ``leg_angles`` is a list (one per hop) or a callback
+    apexes are reached, or ``max_time`` [s] (default ``RUN_SECONDS`` in the hopper's time units,
+    ``drakeslip.units``). ``leg_angles`` is a list (one per hop) or a callback
     ``f(apex: ApexState, hop_index) -> angle | None``, called at each apex. A hop that takes longer than
-    ``max_hop_time`` is a STALL.
+    ``max_hop_time`` [s] (default ``HOP_SECONDS`` in the hopper's time units) ends the run as a TIMEOUT. When the
+    integrator raises, or the derivatives are not finite (NaN), the run stops at once with ``SimulationCrash``
+    naming the time, the hop's mode and the state.
 
     ``add_to`` adds your own systems to the diagram: ``add_to(builder, hopper)`` is called with the
     DiagramBuilder and the SlipHopper once the hopper and its apex policy are added and connected, before
@@ -104,6 +108,8 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     params = params or SlipParams()
     terrain = terrain or Terrain.flat()
     apex = check_apex(apex, terrain, params)
+    units = units_of(params)
+    max_time, max_hop_time = units.time_or(max_time, RUN_SECONDS), units.time_or(max_hop_time, HOP_SECONDS)
     integrator = integrator or IntegratorConfig()
     if max_hops is not None and max_hops < 1:
         raise ValueError(f"max_hops must be at least 1, got {max_hops}")
@@ -152,8 +158,8 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
         return EventStatus.DidNothing()
 
     simulator.set_monitor(monitor)
-    simulator.Initialize()
-    simulator.AdvanceTo(max_time)
+    advance(simulator, max_time, lambda: f"{Mode(int(hopper.hybrid(hopper_context).mode)).name}, state "
+                                         f"({', '.join(f'{v:g}' for v in hopper.body(hopper_context)[:])})")
     if callable(when_done):
         when_done(simulator)
 
@@ -163,7 +169,7 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     failure = failure_event.failure if failure_event else None
     if failure is None and timed_out[0]:
         s = hopper.body(hopper_context)
-        failure = FailureMode.STALL
+        failure = FailureMode.TIMEOUT
         failure_event = HybridEvent("failure", context.get_time(), tuple(float(v) for v in s[:]), None,
                                     float(h.leg_angle), failure)
         events = events + (failure_event,)
@@ -178,6 +184,20 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
                             params=params, terrain=terrain, leg_angles=used_angles)
 
 
+def advance(simulator, end: float, where: Callable[[], str]) -> None:
+    """Initialize ``simulator`` and advance it to ``end``; when its integrator (or a callback it calls) raises, a
+    ``SimulationCrash`` in one line naming the time, ``where()`` (the system's mode and state) and the cause."""
+    try:
+        simulator.Initialize()
+        simulator.AdvanceTo(end)
+    except SimulationCrash:
+        raise
+    except (RuntimeError, ArithmeticError) as error:
+        cause = (str(error).strip().splitlines() or [type(error).__name__])[0]
+        raise SimulationCrash(f"the integrator failed at t={simulator.get_context().get_time():.6g} s in "
+                              f"{where()}: {cause}") from error
+
+
 def drake_step(apex: ApexState, leg_angle: float, terrain: Terrain, params: SlipParams,
                integrator: IntegratorConfig | None = None) -> StepResult:
     """The step map f(a, t, theta) on the Drake hybrid simulator: one commanded hop, then halt at the apex."""
@@ -189,7 +209,7 @@ def drake_step(apex: ApexState, leg_angle: float, terrain: Terrain, params: Slip
         return StepResult(ok=False, failure=sim.failure, touchdown_x=touchdown_x, next_apex=None, time=e.time,
                           end_state=e.state, work=sim.integrator_steps)
     apex_event = next((e for e in sim.events if e.kind == "apex"), None)
-    if apex_event is None:  # simulate() stops at a failure, a halt at an apex, or a time-out (a STALL)
+    if apex_event is None:  # simulate() stops at a failure (a time-out among them) or a halt at an apex
         raise RuntimeError("Drake simulation ended without an apex or a failure")
     return StepResult(ok=True, failure=None, touchdown_x=touchdown_x, next_apex=ApexState(*apex_event.state[:3]),
                       time=apex_event.time, end_state=apex_event.state, work=sim.integrator_steps)

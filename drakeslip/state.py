@@ -18,7 +18,7 @@ import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
-from drakeslip.bounds import POSITION, SPEED
+from drakeslip.bounds import APEX_HEIGHT, APEX_SPEED, POSITION, SPEED
 from drakeslip.params import SlipParams, check_number
 from drakeslip.terrain import Terrain
 
@@ -46,11 +46,22 @@ class FailureMode(enum.IntEnum):
     SLIP = 3            # during stance the leg force leaves the friction cone: |x-xf| > mu (z-zf)
     BOTTOM_OUT = 4      # the leg compresses below min_leg_length
     TRIP = 5            # at apex the commanded foot position is not above the terrain
-    STALL = 6           # no forward progress: xdot reaches 0, no apex follows liftoff, or the hop times out
+    STALL = 6           # no forward progress: xdot reaches 0, or no apex follows liftoff
+    # Not a guard of the model: the hop outlasted the Drake simulator's per-hop limit (``HopperUnits.hop_seconds``)
+    # before any guard fired, so the run was cut, not failed. The fast backend, which has no such limit, never
+    # gives it.
+    TIMEOUT = 7
 
     @classmethod
     def from_code(cls, code: int) -> "FailureMode | None":
         return None if code == 0 else cls(int(code))
+
+
+class SimulationCrash(RuntimeError):
+    """A simulation that stopped before it could say what the hopper does: its integrator raised, or the hopper's
+    derivatives were not finite (``drakeslip.simulation``), or, where a check needs every hop to end, a hop timed out
+    (``FailureMode.TIMEOUT``). Not a failure of the hopper and not a verdict on its commands: the scripts report it
+    in one line with exit status 3 (``drakeslip.jobs.cli.CRASHED``)."""
 
 
 @dataclass(frozen=True)
@@ -92,6 +103,23 @@ def check_apex(apex, terrain: Terrain, params: SlipParams) -> ApexState:
     ground = terrain.height_at(apex.x)
     if apex.z <= ground:
         raise ValueError(f"apex z={apex.z} is not above the terrain (height {ground} at x={apex.x})")
+    return apex
+
+
+def check_start(apex, terrain: Terrain, params: SlipParams, name: str = "apex") -> ApexState:
+    """``check_apex``, and a start apex a user gives inside the bounds of ``drakeslip.bounds`` in the hopper's units:
+    at most APEX_HEIGHT leg lengths above the ground under it and at most APEX_SPEED sqrt(g L0) fast; ValueError
+    naming ``name``, the value and the bound in metres for this hopper."""
+    apex = check_apex(apex, terrain, params)
+    ground, leg = terrain.height_at(apex.x), params.leg_length
+    if apex.z - ground > APEX_HEIGHT.high * leg:
+        raise ValueError(f"{name} z={apex.z:g} m is {apex.z - ground:g} m above the ground at x={apex.x:g}: more than "
+                         f"{APEX_HEIGHT.high:g} leg lengths ({APEX_HEIGHT.high * leg:g} m for this hopper; APEX_HEIGHT "
+                         "of drakeslip/bounds.py)")
+    fastest = APEX_SPEED.high * math.sqrt(params.gravity * leg)
+    if abs(apex.xdot) > fastest:
+        raise ValueError(f"{name} xdot={apex.xdot:g} m/s is faster than {APEX_SPEED.high:g} sqrt(g L0) ({fastest:.4g} "
+                         "m/s for this hopper; APEX_SPEED of drakeslip/bounds.py)")
     return apex
 
 

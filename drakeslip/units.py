@@ -17,6 +17,13 @@ from drakeslip.params import SlipParams
 from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
 
 PAPER = SlipParams()
+# The Drake simulators' time limits [s], the paper's hopper's, used in every hopper's time units (``HopperUnits``):
+# a hop that lasts longer than HOP_SECONDS ends the run as a TIMEOUT (``drakeslip.simulation``; the multibody
+# robot's monitor calls a phase that long a STALL), and a run of unlisted hops stops after RUN_SECONDS. A hop of
+# the paper's hopper takes under a second on the suites' terrains; 5 s is 22 time units sqrt(L0 / g), more than
+# the two flights of a hop from any start inside ``drakeslip.bounds`` (13.4) and its stance.
+HOP_SECONDS = 5.0
+RUN_SECONDS = 60.0
 
 
 @dataclass(frozen=True)
@@ -51,6 +58,11 @@ class HopperUnits:
         (``Terrain.perceived(x, *units.window)``)."""
         return WINDOW_AHEAD * self.length, WINDOW_BEHIND * self.length
 
+    @property
+    def hop_seconds(self) -> float:
+        """HOP_SECONDS in this hopper's time units [s]: how long one hop may last on a Drake simulator."""
+        return HOP_SECONDS * self.time
+
     def length_or(self, value: float | None, paper: float) -> float:
         """A length option: ``value`` [m] when given, else the paper's ``paper`` [m] in this hopper's lengths."""
         return paper * self.length if value is None else value
@@ -58,6 +70,10 @@ class HopperUnits:
     def speed_or(self, value: float | None, paper: float) -> float:
         """A speed option: ``value`` [m/s] when given, else the paper's ``paper`` [m/s] in this hopper's speeds."""
         return paper * self.speed if value is None else value
+
+    def time_or(self, value: float | None, paper: float) -> float:
+        """A time option: ``value`` [s] when given, else the paper's ``paper`` [s] in this hopper's times."""
+        return paper * self.time if value is None else value
 
 
 @functools.lru_cache(maxsize=256)

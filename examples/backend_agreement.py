@@ -9,8 +9,8 @@ and those where both succeed but the foothold or the next apex differ by more th
 A near-tie (a guard grazed within one integration step) can fall either way on two integrators, so a few
 outcome disagreements are expected; --max-disagreement sets how many are tolerated.
 
-Exit status: 0 when the backends agree (outcomes within --max-disagreement, every shared success within
---tolerance), 1 when they do not, 2 for a usage error.
+Exit status: 0 when the backends agree (outcomes within --max-disagreement, every shared success within --tolerance), 1
+when they do not, 2 for a usage error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -20,6 +20,7 @@ from drakeslip.jobs import cli
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--cases", type=cli.positive_int, default=100, help="number of random hops")

@@ -5,7 +5,8 @@
 Each random hop is timed on the fast step map alone (best of --repeats calls), in a batch of leg angles as a
 planner expands a node (best of --repeats, per angle), and on Drake (one call); the medians are printed.
 
-Exit status: 0 when the timings ran, 2 for a usage error.
+Exit status: 0 when the timings ran, 2 for a usage error, 3 a simulation crashed (one line naming what failed:
+drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -17,6 +18,7 @@ from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 N_ANGLES = 30  # the batch: this many leg angles from each apex, as a planner expands a node
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--cases", type=cli.positive_int, default=30, help="random hops timed on both backends")

@@ -9,7 +9,8 @@ apex within --tolerance and reaches the plan's target; else the first mismatch. 
 OUT.cases.jsonl (a killed run resumes). The plans are made for the suite's hopper; --hopper (a hopper file or folder)
 must be that one, and a folder's weights are then read; the results record the hopper.
 
-Exit status: 0 when the checks ran (whatever their verdicts), 2 for a usage or input error.
+Exit status: 0 when the checks ran (whatever their verdicts; a plan whose check stopped before a verdict is "simulation
+stopped"), 2 for a usage or input error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from planners.registry import check_label, labels, planner_name
 from verification.plan_check_options import MODES, TOLERANCE
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")

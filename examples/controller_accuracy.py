@@ -11,7 +11,8 @@ apexes and errors made the hopper's (lengths times its leg length over 0.5 m, sp
 paper's, apex heights also by how much less of a drop its spring takes, leg angles by its friction cone over the
 paper's: ``planners.formats.suite_draw.start_height_factor``, as suites drawn for it start).
 
-Exit status: 0 when the measurement ran, 2 for a usage or input error (e.g. a damaged weights file).
+Exit status: 0 when the measurement ran, 2 for a usage or input error (e.g. a damaged weights file),
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -56,6 +57,7 @@ def stats(err) -> str:
             f"max {1e3 * e.max():9.3g} mm   {misses}")
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--controller", type=cli.input_file, default=DEFAULT_WEIGHTS,

@@ -25,9 +25,10 @@ read; a suite drawn for another hopper is refused in one line (examples/make_sui
 --backend multibody runs the paper's hopper only (the robot and its fitted template are built for it); a suite of
 another hopper is refused in one line.
 
-Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite
-value outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs. Ctrl-C
-ends it with one line saying how many results were saved, and by SIGINT (a shell shows status 130).
+Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite value
+outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs, 3 a simulation crashed
+(one line naming what failed: drakeslip/jobs/cli.py). Ctrl-C ends it with one line saying how many results were saved,
+and by SIGINT (a shell shows status 130).
 """
 from __future__ import annotations
 
@@ -40,6 +41,7 @@ from planners.closed_loop import ClosedLoopConfig
 from planners.registry import check_label, label_options, loop_settings
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")

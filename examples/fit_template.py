@@ -9,7 +9,7 @@ the paper's template, of the fitted one and of the one the planners use now ("cu
 the hops fitted and on held-out hops (the next cases), and over all of them by the hop's speed change
 ("by_speed_change", m/s bands), and writes the fitted template (drakeslip-hopper/1; the
 multibody backend's planners plan for the one at the default --out). Exit status: 0 written, 1 no hops
-recorded, 2 bad input.
+recorded, 2 bad input, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -34,6 +34,7 @@ def collect_hops(cases, goal_x: float, params) -> list:
     return hops
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suites", default="suites/ditch.json,suites/step.json", help="suites whose cases to run")

@@ -11,6 +11,9 @@ themselves run in Drake's simulator.
 apexes beside what Drake did. --hopper takes a hopper file or folder, --terrain a family (drawn for the hopper as
 examples/make_suites.py --hopper draws it) or a terrain file (a height profile, drakeslip/terrain_file.py); --z and
 --xdot left out are the paper's 0.75 m above the ground and 1.5 m/s in the hopper's units.
+
+Exit status: 0 every hop completed, 1 one failed, 2 a usage or input error, 3 a simulation crashed (one line naming what
+failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -94,6 +97,7 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
         print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     cli.add_hopper(ap)
@@ -114,6 +118,7 @@ def main(argv=None) -> int:
                          "units)")
     args = ap.parse_args(argv)
 
+    from drakeslip.state import check_start
     from drakeslip.terrain_file import scaled_terrain
     from drakeslip.units import PAPER, units_of
 
@@ -130,10 +135,11 @@ def main(argv=None) -> int:
 
         terrain = hopper_terrain(args.terrain, args.seed, suite_scales(params))
     z = terrain.height_at(args.x0) + 0.75 * units.length if args.z is None else args.z
-    start = ds.ApexState(args.x0, z, 1.5 * units.speed if args.xdot is None else args.xdot)
-    if start.z <= terrain.height_at(start.x):
-        ap.error(f"the start apex z={start.z} is not above the terrain (height {terrain.height_at(start.x)} at "
-                 f"x={start.x})")
+    try:
+        start = check_start((args.x0, z, 1.5 * units.speed if args.xdot is None else args.xdot), terrain, params,
+                            "the start apex")
+    except ValueError as error:
+        ap.error(str(error))
     from drakeslip.viz import animate, plot_trajectory
 
     policy = TwoHopLookahead(terrain, params, nominal_speed=start.xdot)

@@ -11,7 +11,8 @@ hopper (``drakeslip/multibody/hopper.sdf``) and a terrain's boxes, the ``HopperC
 
 then runs the Diagram in one Simulator from an apex until the body passes the goal, and prints each plan the
 planner made at an apex. Add your own systems (an estimator, a logger, a visualizer) the same way. Exit status
-0 when the body reaches the goal, 1 otherwise, 2 on bad input.
+0 when the body reaches the goal, 1 otherwise, 2 on bad input, 3 a simulation crashed (one line naming what
+failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -93,6 +94,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     return planner_system, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--planner", default="step@robust", help="a registered planner label")

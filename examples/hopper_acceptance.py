@@ -9,7 +9,7 @@ adds those families for step and lstm-guided (reported, no bar). Suites are draw
 (a fresh one: the committed suites use 1000 and 2000). --hopper FILE|DIR checks that hopper alone (a hopper
 folder's weights from examples/train_hopper.py are then read) instead of the drawn ones. Results go to OUT/HOPPER-FAMILY.json, each with its case
 cache, so a killed run resumes. Prints one table; exit 0 when every bar holds, 1 when one does not, 2 for a usage
-error.
+error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -18,6 +18,7 @@ import sys
 from drakeslip.jobs import cli
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     cli.add_hopper(ap, default="the drawn hoppers")

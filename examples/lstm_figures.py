@@ -8,7 +8,8 @@ fig3_second_step.png: ditch (top) and step (bottom) terrain, three initial energ
 apex speed); the second step's distribution scaled so its mode has height 1, and the 4-step plan (modes).
 The planner is the paper's LSTM planner (planners.make("lstm@paper")), with --model for another model.
 
-Exit status: 0 when both figures were written, 2 for a usage or input error (e.g. a damaged model file).
+Exit status: 0 when both figures were written, 2 for a usage or input error (e.g. a damaged model file),
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -94,6 +95,7 @@ def fig3(planner, args):
     fig.savefig(args.out / FIGURES[1], dpi=110)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--out", type=cli.output_folder, default="docs", help="folder the two figures are written to")

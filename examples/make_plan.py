@@ -16,7 +16,8 @@ are then read) and recorded in the file. --terrain plans on a terrain file inste
 planners, angle and step, run their search once more to keep the tree: the same search, the same plan; other
 planners' plans are drawn alone).
 
-Exit status: 0 a plan was written, 1 the planner found no plan, 2 a usage or input error.
+Exit status: 0 a plan was written, 1 the planner found no plan, 2 a usage or input error, 3 a simulation crashed (one
+line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -28,6 +29,7 @@ from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ground = ap.add_mutually_exclusive_group(required=True)

@@ -104,14 +104,17 @@ def draw(ap, args, argv) -> int:
         args.out.mkdir(parents=True, exist_ok=True)
     except OSError as error:
         ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
-    cli.announce(argv)
 
     from planners.formats.suite import save_suite
     from planners.formats.suite_draw import draw_suite
 
-    for family, seed in seeds.items():
-        suite = draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
-                           heights=args.heights, name=names[family])
+    try:   # every suite drawn before any is written: a start outside the bounds is refused first
+        suites = [draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
+                             heights=args.heights, name=names[family]) for family, seed in seeds.items()]
+    except ValueError as error:
+        ap.error(str(error))
+    cli.announce(argv)
+    for suite, seed in zip(suites, seeds.values()):
         path = args.out / f"{suite.name}.json"
         save_suite(suite, path)
         print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")

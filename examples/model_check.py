@@ -19,7 +19,8 @@ Each finished case is appended to OUT.cases.jsonl, so a killed run continues whe
 starts over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases
 at a time in separate processes (--executor ray: on a Ray cluster).
 
-Exit status: 0 done, 1 a planner crossed a case the oracle proved not traversable (--against), 2 a usage error.
+Exit status: 0 done, 1 a planner crossed a case the oracle proved not traversable (--against), 2 a usage error,
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -30,6 +31,7 @@ from drakeslip.jobs.files import read_json
 from verification.model_check import DEFAULT_BUDGET
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite JSON file (format drakeslip-suite/1)")

@@ -5,7 +5,8 @@
 The controller places the foot by Raibert's rule for each speed (no footholds) and holds the energy of an apex
 0.62 m high; the largest pitch is printed over all hops and after the first SETTLING_HOPS (the start, body level
 at an apex already at speed, is not the gait's own rhythm). Exit status: 0 when every speed hops --hops hops with
-no failure, 1 otherwise, 2 on bad input.
+no failure, 1 otherwise, 2 on bad input,
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -35,6 +36,7 @@ def _hops(text: str) -> int:
     return int(text)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--speeds", type=_speeds, default="0,1,2,3", help="forward speeds [m/s], comma-separated")

@@ -8,7 +8,8 @@ execute 3 footholds on the Drake simulator, replan) on the committed suites, dit
 (Table III), plus any --extra suites (e.g. a mixed one), writes each suite's results JSON into the --out folder
 (resumable: a killed run continues from its per-case cache) and prints the tables as markdown.
 
-Exit status: 0 when the tables were made, 2 for a usage or input error.
+Exit status: 0 when the tables were made, 2 for a usage or input error, 3 a simulation crashed (one line naming what
+failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -67,6 +68,7 @@ def suite_files(text: str) -> list:
     return [cli.input_file(name) for name in cli.names(text)]
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--ditch", type=cli.input_file, default="suites/ditch.json", help="Table II's suite")

@@ -21,7 +21,8 @@ Writes a figure of the terrain, the body path, the leg at every touchdown and li
 footholds; --html also writes a Meshcat replay of the run (self-contained HTML, the camera following the hopper: the
 executed footholds against the planned ones, the plans' predicted apexes, the failure marked and named). With
 --backend multibody both show the robot (drakeslip/multibody/replay.py).
-Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error.
+Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error,
+3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -39,6 +40,7 @@ from planners.registry import check_label, loop_settings
 FIGURE = (".png", ".pdf", ".svg")
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     cli.add_hopper(ap)
@@ -199,7 +201,10 @@ def save_figure(ax, result, terrain, args, title):
 
 
 def write_html(sim, result, plans, args):
-    """The Meshcat replay: every executed plan's commanded footholds and predicted apexes over the run."""
+    """The Meshcat replay: every executed plan's commanded footholds and predicted apexes over the run (a plan of
+    the heuristic or lstm planner predicts none: its apexes are NaN rows)."""
+    import numpy as np
+
     from drakeslip.meshcat_replay import write_replay
 
     if sim is None:
@@ -207,7 +212,8 @@ def write_html(sim, result, plans, args):
         return
     planned, predicted = executed_plans(plans, result["plans"])
     outcome = "reached the goal" if result["success"] else f"failed ({result['failure']})"
-    write_replay(sim, args.html, planned_footholds=planned, predicted_apexes=predicted,
+    write_replay(sim, args.html, planned_footholds=planned,
+                 predicted_apexes=[a for a in predicted if np.all(np.isfinite(a))],
                  title=f"plan_and_hop.py: {args.planner} on {where(args)}, {outcome}")
     print(f"replay: {args.html}")
 

@@ -15,7 +15,8 @@ from, and the plan's hopper); --hopper checks the plan against a hopper file or 
 hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome
 (PNG).
 
-Exit status: 0 when the draws ran, 2 for a usage or input error.
+Exit status: 0 when the draws ran, 2 for a usage or input error, 3 a simulation crashed (one line naming what failed:
+drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -27,6 +28,7 @@ from drakeslip.noise import PROFILES
 from drakeslip.terrain import check_window
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")

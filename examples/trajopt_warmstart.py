@@ -24,6 +24,9 @@ checkout; the settings, the seed and its options, the SHA-256 of every weights f
 a killed run continues where it stopped and a run of changed code solves again (--no-resume starts over).
 --jobs N solves N (seed, case) pairs at a time in separate processes (or on a Ray cluster with --executor ray),
 with the same records as one process (solve times are wall-clock: keep N at most the number of cores).
+
+Exit status: 0 when the solves ran (whatever their outcomes), 2 for a usage or input error, 3 a simulation crashed
+(one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -144,6 +147,7 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = parser()
     args = ap.parse_args(argv)

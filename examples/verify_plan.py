@@ -15,7 +15,9 @@ folder: a plan made for another hopper is refused in one line. --terrain checks 
 
 Exit status: 0 certified, 1 counterexample, 2 a usage error or a malformed plan file (its fields disagree, or one
 lies outside the physical bounds of drakeslip/bounds.py, such as a stiffness of 1e308: see
-planners/formats/plan.py), refused in one line before the simulation starts.
+planners/formats/plan.py), refused in one line before the simulation starts, 3 no verdict: the simulation stopped
+before the run left the plan or ended, in one line naming why (the integrator failed, NaN derivatives, or a hop
+outlasted the simulator's limit, a TIMEOUT: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -27,6 +29,7 @@ from drakeslip.jobs import cli
 from verification.plan_check_options import MODES, TOLERANCE
 
 
+@cli.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 or /1 JSON)")

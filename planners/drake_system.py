@@ -26,10 +26,11 @@ from drakeslip.multibody.controller import (CLEARANCE, STANCE_TIME, FootholdComm
                                             touchdown_angle)
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
-from drakeslip.multibody.failures import HOP_SECONDS, HopMonitor
+from drakeslip.multibody.failures import HopMonitor
 from drakeslip.multibody.robot import RobotParams, StateLayout
 from drakeslip.noise import NoiseProfile
 from drakeslip.params import check_number
+from drakeslip.simulation import advance
 from drakeslip.terrain import Terrain
 from drakeslip.units import units_of
 
@@ -241,8 +242,7 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
     if hd.visualizer is not None:
         hd.visualizer.StartRecording()
     start = time.perf_counter()
-    simulator.Initialize()
-    simulator.AdvanceTo(HOP_SECONDS * (max_hops + 1))
+    advance(simulator, monitor.hop_seconds * (max_hops + 1), lambda: f"the robot's hop {len(monitor.log.footholds)}")
     wall = time.perf_counter() - start
     if hd.visualizer is not None:
         hd.visualizer.StopRecording()

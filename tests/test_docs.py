@@ -87,14 +87,18 @@ def test_every_relative_link_leads_to_a_file_and_heading_that_exist(page):
 
 
 def test_the_probe_table_lists_every_probe():
-    """One row per probe of tests/test_probes.py (its PROBES and the three probes after them), in its order."""
+    """One row per probe of tests/test_probes.py (its PROBES and the three probes after them), in its order, then
+    one per probe of tests/test_probes_sim.py."""
     import test_probes
+    import test_probes_sim
 
     text = (ROOT / "docs" / "verification.md").read_text()
     table = text[text.index("| probe | expected | observed (exit status: stderr) |"):]
     lines = table.splitlines()[2:]
     rows = lines[:next((i for i, line in enumerate(lines) if not line.startswith("|")), len(lines))]
     probes = rows[:len(test_probes.PROBES)]
-    assert len(rows) == len(test_probes.PROBES) + 3
+    assert len(rows) == len(test_probes.PROBES) + 3 + len(test_probes_sim.PROBES)
     for row, (script, _, _) in zip(probes, test_probes.PROBES):
+        assert row.startswith(f"| `{script}.py "), row
+    for row, (script, *_) in zip(rows[len(test_probes.PROBES) + 3:], test_probes_sim.PROBES):
         assert row.startswith(f"| `{script}.py "), row

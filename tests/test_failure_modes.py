@@ -59,8 +59,21 @@ CASES = {
 }
 
 
-def test_every_failure_mode_has_a_case():
-    assert {case[-1] for case in CASES.values()} == set(FailureMode)
+def test_every_failure_mode_of_the_model_has_a_case():
+    assert {case[-1] for case in CASES.values()} == set(FailureMode) - {FailureMode.TIMEOUT}
+
+
+def test_a_hop_past_the_drake_limit_is_a_timeout_not_a_stall():
+    """A fall into a 200 m pit lasts 6.4 s, past the 5 s per-hop limit of the paper's hopper: Drake cuts the run
+    with the body still falling (a TIMEOUT, not a guard of the model); the fast backend has no limit and reaches
+    the pit's floor, where the spring bottoms out."""
+    heights = blocks((0.0, 20.0, -200.0)).heights
+    pit = ds.Terrain(heights, 0.1, -3.0, ditch_height=-300.0)   # solid ground 200 m down, not a ditch
+    drake = ds.step((0.5, 0.9, 1.0), 0.1, pit, PARAMS, backend="drake")
+    assert drake.failure is FailureMode.TIMEOUT and drake.time == pytest.approx(5.0, abs=0.01)
+    assert -200.0 < drake.end_state[1] < 0.0 and drake.end_state[3] < -40.0   # falling at about 49 m/s
+    fast = ds.step((0.5, 0.9, 1.0), 0.1, pit, PARAMS, backend="fast")
+    assert fast.failure is FailureMode.BOTTOM_OUT and fast.time > 6.0
 
 
 @pytest.mark.parametrize("backend", ["fast", "drake"])

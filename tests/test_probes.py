@@ -2,7 +2,7 @@
 ``drakeslip.bounds``) before any planning or simulation starts. A damaged cache line is run again with one warning,
 Ctrl-C ends a run in one line with no process left, and a planner's target on a one-cell terrain is the goal.
 ``python3 tests/test_probes.py`` runs every probe as a user would and prints the markdown table of
-docs/verification.md (the command, what it must get, what it got)."""
+docs/verification.md (the command, what it must get, what it got), with the probes of tests/test_probes_sim.py."""
 import copy
 import json
 import os
@@ -305,9 +305,12 @@ def markdown() -> str:
     targets = one_cell_targets()
     got = ", ".join(f"{name}: target {t:g}, {'a plan' if ok else 'no plan'}" for name, (t, ok) in targets.items())
     rows.append(f"| `{ONE_CELL}`, NAME each nominal planner | target 6, a plan | {got} |")
+    from test_probes_sim import markdown_rows   # the edges of the simulation: tests/test_probes_sim.py
+
+    sim_rows, sim_legend = markdown_rows()
     legend = "; ".join([*(f"TMP/{name}: {what}" for name, (what, _) in FILES.items()),
-                        "TMP/one.json: the first case of S"])
-    return "\n".join(rows) + f"\n\nFiles: {legend}."
+                        "TMP/one.json: the first case of S", sim_legend])
+    return "\n".join(rows + sim_rows) + f"\n\nFiles: {legend}."
 
 
 if __name__ == "__main__":

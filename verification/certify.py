@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from drakeslip import SlipParams, StepLengthController
 from drakeslip.hopper_file import hopper_for, params_from_fields
+from drakeslip.state import SimulationCrash
 from drakeslip.units import units_of
 
 from planners.formats.plan import PlanRecord
@@ -24,8 +25,9 @@ def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: s
                  hopper: dict | None = None) -> dict:
     """{"label", "id", "verdict", "reason", "hops", "kind", "hop"} for the first plan of ``label`` on ``case`` (a
     suite's case entry) for the hopper whose SlipParams fields are ``hopper`` (None: the paper's) on ground of
-    ``friction``: "certified", "counterexample" (with its reason), "no plan", or "malformed" (a plan the plan-file
-    format refuses: its fields disagree, with the reason)."""
+    ``friction``: "certified", "counterexample" (with its reason), "no plan", "malformed" (a plan the plan-file
+    format refuses: its fields disagree, with the reason), or "simulation stopped" (the check's simulation crashed
+    or timed out before a verdict, ``SimulationCrash``, with its message)."""
     suite = suite_from_dict({"format": "drakeslip-suite/1", "name": "case", "goal_x": goal_x, "friction": friction,
                              "cases": [case]})
     body = SlipParams() if hopper is None else params_from_fields(hopper, "the task's hopper")
@@ -38,7 +40,10 @@ def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: s
         written = PlanRecord.from_plan(plan, c.apex, c.terrain, goal_x, params, hopper_for(params))
     except ValueError as malformed:
         return {**record, "verdict": "malformed", "reason": str(malformed), "hops": len(plan.footholds)}
-    result = check_plan(written, mode, tolerance, controller=_WORKER["controller"])
+    try:
+        result = check_plan(written, mode, tolerance, controller=_WORKER["controller"])
+    except SimulationCrash as stopped:
+        return {**record, "verdict": "simulation stopped", "reason": str(stopped), "hops": len(plan.footholds)}
     if result.ok:
         return {**record, "verdict": "certified", "reason": "", "hops": len(result.footholds)}
     return {**record, "verdict": "counterexample", "reason": result.reason(), "hops": len(plan.footholds),

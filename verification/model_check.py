@@ -54,12 +54,12 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.rollout import HOP_SECONDS, rollout
+from drakeslip.rollout import rollout
 
 from drakeslip.units import units_of
 from planners.base import Budget
 from planners.search.tree import clear_of_edges
-from planners.search.energy_graph import CellGraph, Coreach
+from planners.search.energy_graph import Coreach, cell_graph
 from verification.energy_bound import prove_unreachable
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
@@ -264,7 +264,7 @@ def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float,
         return plan["leg_angles"][j]
 
     run = rollout(apex, terrain, params, leg_angles=policy, backend="drake",
-                  max_time=HOP_SECONDS * (len(witness["leg_angles"]) + 20))
+                  max_time=units_of(params).hop_seconds * (len(witness["leg_angles"]) + 20))
     final_x = run.apexes[-1].x if run.apexes else apex.x
     return {"ok": run.ok and not log["stuck"] and final_x >= goal_x, "replans": log["replans"],
             "hops_done": len(run.apexes), "failure": run.failure.name if run.failure else None,
@@ -307,9 +307,8 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
         result.update(verdict=TRAVERSABLE, witness={"leg_angles": [], "footholds": [], "apexes": []},
                       statement="the start is at or past the goal")
         return result
-    alive = None
-    if energy:
-        graph = CellGraph(apex, terrain, goal_x, params)
+    alive, graph = None, cell_graph(apex, terrain, goal_x, params) if energy else None   # None: too large
+    if graph is not None:
         proof = prove_unreachable(apex, terrain, goal_x, params, graph=graph)
         if proof is not None:
             result.update(verdict=PROVED_NOT_TRAVERSABLE, proof=proof, statement="proved: " + proof["statement"],

@@ -32,6 +32,8 @@ from drakeslip.hopper_file import Hopper, check_same_hopper
 from drakeslip.jobs.runner import finite
 from drakeslip.rollout import rollout
 from drakeslip.simulation import IntegratorConfig, SimulationResult
+from drakeslip.state import SimulationCrash
+from drakeslip.units import HOP_SECONDS, units_of
 
 from planners.formats.plan import PlanRecord
 from verification.margins import Margin, margins
@@ -199,7 +201,9 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
                hopper: Hopper | None = None) -> Certificate | Counterexample:
     """Simulate ``record`` on Drake (see the module doc for the modes and what a certificate means) and certify it,
     or return the first place the run left it. With ``hopper``, a plan made for another hopper (its params' body
-    differs) is refused: ValueError in one line, before any simulation."""
+    differs) is refused: ValueError in one line, before any simulation. A run that stops before it says what the
+    plan does (the integrator raised, NaN derivatives, a hop that timed out before the plan was left) raises
+    ``SimulationCrash``."""
     if hopper is not None:
         check_same_hopper(hopper, record.params, "the plan")
     if mode not in MODES:
@@ -227,6 +231,8 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
             planned, actual = float(record.footholds[k]), float(sim.footholds[k])
             if abs(actual - planned) > tolerance:
                 return _counterexample(sim, record, mode, tolerance, "foothold", k, planned, actual, touchdowns[k])
+        if sim.failure is FailureMode.TIMEOUT and k == sim.failed_hop:
+            raise SimulationCrash(timed_out(sim, k))
         if sim.failure is not None and k == sim.failed_hop:
             return _counterexample(sim, record, mode, tolerance, "failure", k, None, None, sim.failure_event)
         predicted = record.apexes[k]
@@ -234,7 +240,7 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
             return _counterexample(sim, record, mode, tolerance, "apex", k, tuple(map(float, predicted)),
                                    tuple(map(float, sim.apexes[k])), apex_events[k])
     if len(sim.apexes) != n:
-        raise RuntimeError(f"the Drake run stopped after {len(sim.apexes)} of {n} hops with no failure")
+        raise SimulationCrash(f"the Drake run stopped after {len(sim.apexes)} of {n} hops with no failure")
     if sim.footholds[-1] < record.target_x - tolerance:
         return _counterexample(sim, record, mode, tolerance, "target", n - 1, record.target_x,
                                float(sim.footholds[-1]), apex_events[-1])
@@ -246,6 +252,15 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
                        deviation=float(np.max(np.abs(np.subtract(sim.footholds, record.footholds)))),
                        apex_deviation=apex_deviation, safety=margins(sim), goal_x=record.goal_x,
                        target_x=record.target_x, simulation=sim)
+
+
+def timed_out(sim: SimulationResult, hop: int) -> str:
+    """One line: the TIMEOUT of ``sim`` in ``hop``, where the hopper was when the simulator's limit cut the run."""
+    e, mode = sim.failure_event, Mode(int(sim.hybrid[-1][0])).name if len(sim.hybrid) else "its hop"
+    limit = units_of(sim.params).hop_seconds
+    return (f"TIMEOUT at hop {hop}: the hop outlasted the simulator's {limit:.4g} s limit (HOP_SECONDS, "
+            f"{HOP_SECONDS:g} s in this hopper's time units) before any guard fired, the hopper still in {mode} at "
+            f"t={e.time:.4g} s, x={e.state[0]:.4g} z={e.state[1]:.4g} zdot={e.state[3]:.4g}: no verdict on the plan")
 
 
 def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str, tolerance: float, kind: str, hop: int,

@@ -3,33 +3,38 @@ the same everywhere, and the exit codes.
 
 Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop), or a file that could
 not be written or read once the work started (a full disk: ``OSError``); 2 a usage or input error, reported in one
-line before any work starts. Importing this module makes two errors one line on stderr instead of a traceback, for
-the rest of the script: Ctrl-C (SIGINT) says what was saved (``interrupted``), leaves no worker process behind and
-ends the process by SIGINT, as an interrupted program does, so a shell reports status 130 (128 + SIGINT) and stops
-a script that runs it; an ``OSError`` (no space left on the device, a file that cannot be written) names the file
-and the reason, says what was saved, and ends with status 1: the command was right, the run could not finish, and
-the same command resumes it once the cause is fixed (every result file is written atomically, so none is left half
-written). Every script imports this module before anything else of the toolkit, so that holds from its first
-statement; ``import drakeslip`` loads nothing heavy. Heavy libraries (torch, pydrake, matplotlib, ray) are not
-imported here, so a script's ``--help`` is fast. An argument that names an output file which is an input of another
-argument (or another output) is refused in one line (``drakeslip.jobs.file_args``).
+line before any work starts; 3 a simulation that crashed or timed out (its integrator raised, its derivatives were
+NaN, or a hop outlasted the simulator's limit: ``drakeslip.state.SimulationCrash``), reported in one line naming what
+failed (``reports_crashes``): no verdict on the plan or the hopper. Importing this module makes two errors one line
+on stderr instead of a traceback, for the rest of the script: Ctrl-C (SIGINT) says what was saved (``interrupted``),
+leaves no worker process behind and ends the process by SIGINT, as an interrupted program does, so a shell reports
+status 130 (128 + SIGINT) and stops a script that runs it; an ``OSError`` (no space left on the device, a file that
+cannot be written) names the file and the reason, says what was saved, and ends with status 1: the command was
+right, the run could not finish, and the same command resumes it once the cause is fixed (every result file is
+written atomically, so none is left half written). Every script imports this module before anything else of the
+toolkit, so that holds from its first statement; ``import drakeslip`` loads nothing heavy. Heavy libraries (torch,
+pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast. An argument that names an output
+file which is an input of another argument (or another output) is refused in one line
+(``drakeslip.jobs.file_args``).
 """
 from __future__ import annotations
 
 import argparse
 import errno
+import functools
 import math
 import shlex
 import sys
 from pathlib import Path
 
 from drakeslip.bounds import Bound
+from drakeslip.state import SimulationCrash
 from drakeslip.jobs.executors import make_executor
 from drakeslip.jobs.file_args import TerrainFile, clash, input_file, output_file, output_folder  # noqa: F401
 from drakeslip.jobs.files import printable
 from drakeslip.jobs.runner import saved_so_far
 
-OK, FAILED, USAGE = 0, 1, 2
+OK, FAILED, USAGE, CRASHED = 0, 1, 2, 3
 
 
 class Formatter(argparse.ArgumentDefaultsHelpFormatter, argparse.RawDescriptionHelpFormatter):
@@ -66,6 +71,19 @@ class ArgumentParser(argparse.ArgumentParser):
         problem = clash({option(dest): value for dest, value in vars(args).items()}, extra_outputs)
         if problem:
             self.error(problem)
+
+
+def reports_crashes(main):
+    """A script's ``main(argv)``, with a simulation that crashed or timed out (``SimulationCrash``) reported as one
+    line on stderr, ``SCRIPT: simulation stopped: WHAT``, and exit status CRASHED instead of a traceback."""
+    @functools.wraps(main)
+    def run(argv=None):
+        try:
+            return main(argv)
+        except SimulationCrash as crash:
+            sys.stderr.write(f"{Path(sys.argv[0]).name}: simulation stopped: {crash}\n")
+            return CRASHED
+    return run
 
 
 def report_errors() -> None:

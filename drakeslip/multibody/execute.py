@@ -10,8 +10,9 @@ from pydrake.systems.analysis import Simulator
 
 from drakeslip.multibody.controller import FootholdCommand, apex_energy
 from drakeslip.multibody.diagram import build_diagram, set_apex_state, set_command
-from drakeslip.multibody.failures import HOP_SECONDS, HopLog, HopMonitor
+from drakeslip.multibody.failures import HopLog, HopMonitor
 from drakeslip.multibody.robot import RobotParams
+from drakeslip.simulation import advance
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
 
@@ -61,9 +62,8 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
     monitor = HopMonitor(hd, terrain, context, len(footholds), trajectory)
     monitor.command_footholds = footholds
     simulator.set_monitor(monitor)
-    simulator.Initialize()
-    end = max_time if max_time is not None else HOP_SECONDS * (len(footholds) + 1)
-    simulator.AdvanceTo(end)
+    end = max_time if max_time is not None else monitor.hop_seconds * (len(footholds) + 1)
+    advance(simulator, end, lambda: f"the robot's hop {len(monitor.log.footholds)}")
     log = monitor.log
     if log.failure is None and len(log.apexes) < len(footholds):
         from drakeslip.multibody.failures import RobotFailure
@@ -90,8 +90,7 @@ def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex
     set_command(hd, context, command)
     monitor = HopMonitor(hd, terrain, context, hops, trajectory)
     simulator.set_monitor(monitor)
-    simulator.Initialize()
-    simulator.AdvanceTo(HOP_SECONDS * (hops + 1))
+    advance(simulator, monitor.hop_seconds * (hops + 1), lambda: f"the robot's hop {len(monitor.log.footholds)}")
     return monitor.log
 
 

@@ -5,7 +5,8 @@ Failures carry the SLIP's names (``FailureMode``) with what happened on the robo
 FOOT_COLLISION — the foot in a ditch (below its rim) or pressed into a step's vertical face; TRIP — the foot
 meets the ground while swinging forward after liftoff; SLIP — the foot slides ``SLIP_DISTANCE`` in stance;
 BOTTOM_OUT — the leg reaches its bottom-out stop; STALL — no apex with forward speed toward a foothold ahead, or
-a hop longer than ``HOP_SECONDS``; BODY_COLLISION — a fall: the body pitches past ``PITCH_LIMIT`` or a corner of
+a phase of a hop longer than ``drakeslip.units.HOP_SECONDS`` in its template's time units (the robot's legs stand
+still); BODY_COLLISION — a fall: the body pitches past ``PITCH_LIMIT`` or a corner of
 the body box reaches the terrain.
 """
 from __future__ import annotations
@@ -20,10 +21,10 @@ from drakeslip.multibody.controller import (ASCENT, DESCENT, PHASE, STAMP, STANC
                                             Heights)
 from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
+from drakeslip.units import units_of
 
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
 SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
-HOP_SECONDS = 5.0      # a hop longer than this is a STALL, as on the SLIP (drakeslip.rollout)
 BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (hopper.sdf)
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
 
@@ -79,6 +80,7 @@ class HopMonitor:
         self.apexes = 0
         p = hd.params
         self.radius, self.bottom = p.foot_radius, p.bottom_extension
+        self.hop_seconds = units_of(p.slip).hop_seconds   # a phase longer than this is a STALL
         self.q_index = list(hd.layout.q)
         self.v_index = list(hd.layout.v)
 
@@ -146,7 +148,7 @@ class HopMonitor:
         slide = fx - c[TOUCHDOWN_X] - self.radius * (c[TD_ANGLE] - angle)
         if phase == STANCE and abs(slide) > SLIP_DISTANCE:
             return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
-        if t - self.phase_start > HOP_SECONDS:
+        if t - self.phase_start > self.hop_seconds:
             return FailureMode.STALL, "no hop completed"
         if phase == DESCENT and self.phase_start == t and xd <= 0.0 and self._target_ahead(x, c):
             return FailureMode.STALL, f"no forward speed at the apex (xdot={xd:+.2f} m/s)"

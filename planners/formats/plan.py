@@ -30,7 +30,7 @@ from drakeslip.hopper_file import Hopper, check_same_hopper, hopper_for, hopper_
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, POSITION, TERRAIN_START
 from drakeslip.params import check_number
-from drakeslip.state import APEX_BOUNDS, as_apex, check_apex
+from drakeslip.state import APEX_BOUNDS, as_apex, check_start
 from drakeslip.terrain import DITCH_HEIGHT, family
 
 from planners.base import Plan
@@ -80,7 +80,7 @@ class PlanRecord:
             i = int(ahead[0]) + 1
             raise ValueError(f"apexes[{i}] x = {self.apexes[i, 0]:g} is not past apexes[{i - 1}] x = "
                              f"{self.apexes[i - 1, 0]:g}: the body moves forward")
-        check_apex(self.apex, self.terrain, self.params)
+        check_start(self.apex, self.terrain, self.params)
         rim = self.terrain.far_rim(self.apex.x)
         if rim is not None and self.apex.z <= rim[1]:
             raise ValueError(f"the start apex (x={self.apex.x:g}, z={self.apex.z:g}) is inside a ditch")

@@ -8,12 +8,12 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass
 
-from drakeslip import ApexState, Terrain
+from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.hopper_file import Hopper, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
 from drakeslip.params import check_name, check_number
-from drakeslip.state import APEX_BOUNDS
+from drakeslip.state import APEX_BOUNDS, check_start
 from drakeslip.terrain import DITCH_HEIGHT, family as terrain_family
 
 SUITE_FORMAT = "drakeslip-suite/1"
@@ -104,6 +104,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
     hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
+    params = hopper.params if hopper is not None else SlipParams()   # whose units bound the starts
     raw_cases = required_field(d, "cases", source)
     if not isinstance(raw_cases, list) or not raw_cases:
         raise ValueError(f"{source}: cases must be a non-empty list")
@@ -129,7 +130,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:
             raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
-        cases.append(Case(case_id, terrain, apex))
+        cases.append(Case(case_id, terrain, check_start(apex, terrain, params, f"{where}.apex")))
     return Suite(name, goal_x, friction, tuple(cases), hopper)
 
 

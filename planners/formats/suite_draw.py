@@ -43,6 +43,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
 from drakeslip.hopper_file import Hopper, check_same_hopper, paper_hopper
 from drakeslip.params import check_number
+from drakeslip.state import check_start
 from drakeslip.terrain import DITCH_WIDTH, TERRAIN_FAMILIES
 from drakeslip.terrain_file import gaps_of, load_terrain, terrain_with_gaps
 from drakeslip.units import PAPER, units_of
@@ -127,7 +128,14 @@ def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS, speeds=PAPER_SPEEDS)
              * min(1.0, math.atan(params.friction) / math.atan(PAPER.friction)))
     mine = tuple((z * units.length * f, v * speed) for z, f in zip(heights, factors) for v in speeds)
     papers = tuple((z, v) for z in heights for v in speeds)
-    ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
+    if mine == papers:   # the paper's hopper: its own stride, whatever it is
+        ditch = 1.0
+    elif stride(PAPER, papers) == 0.0:
+        raise ValueError(f"no start of heights {list(heights)} m and speeds {list(speeds)} m/s takes the paper's hopper "
+                         "two hops on flat ground (its spring bottoms out, or it stalls): the suite's ditch widths "
+                         "and course, scaled by that stride, have nothing to scale")
+    else:
+        ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
     return SuiteScales(units.length, speed, units.length * climb, factors, units.length * ditch)
 
 
@@ -159,6 +167,9 @@ def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains:
     hopper's."""
     if family not in TERRAIN_FAMILIES:
         raise ValueError(f"unknown terrain family {family!r}; choose one of {sorted(TERRAIN_FAMILIES)}")
+    for z in heights:   # the paper's starts inside the start bounds: made the hopper's, so are its own
+        for v in speeds:
+            check_start((START_X, z, v), Terrain.flat(), PAPER, f"the paper's start at {v:g} m/s: its apex")
     hopper = hopper or paper_hopper()
     scales = suite_scales(hopper.params, tuple(heights), tuple(speeds))
     start_x = START_X * scales.length
@@ -226,7 +237,10 @@ def profile_paths(profiles) -> list[Path]:
 
 def suite_for(hopper: Hopper, name: str, goal_x: float, friction: float | None, cases) -> Suite:
     """A Suite of ``cases`` for ``hopper``, which it records unless it is the paper's; ValueError when two cases
-    share an id (start speeds or heights that agree to the 6 digits an id shows)."""
+    share an id (start speeds or heights that agree to the 6 digits an id shows) or a start lies outside the bounds
+    in the hopper's units (``drakeslip.state.check_start``)."""
+    for case in cases:
+        check_start(case.apex, case.terrain, hopper.params, f"case {case.id!r}: the start apex")
     ids = [c.id for c in cases]
     if len(set(ids)) != len(ids):
         twice = next(i for i in ids if ids.count(i) > 1)

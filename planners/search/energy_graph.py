@@ -49,6 +49,17 @@ from drakeslip import SlipParams, Terrain
 
 ENERGY_SLACK = 1e-3     # m added to the energy height H: every claim is made as if the hopper had this much more
 GEOMETRY_SLACK = 1e-3   # m added to every reach and taken from every clearance (covers FACE_TOLERANCE = 1e-5 m)
+# The most cells a graph may have: its edges are a cells x cells matrix of booleans (100 MB here, built in under a
+# second). The graph spans the course and twice the energy height above the lowest solid ground (every flight's
+# range), so only an apex hundreds of leg lengths above that ground, or a map of cells far finer than the leg,
+# comes near it; such a graph is refused (GraphTooLarge): the planners' pruned stage is then skipped, and the
+# oracle searches without the energy argument.
+MAX_CELLS = 10_000
+EDGE_ROWS = 256         # rows of the edge matrix computed at a time
+
+
+class GraphTooLarge(ValueError):
+    """The cell graph of a start would have more than MAX_CELLS cells."""
 
 
 def energy_height(apex, params: SlipParams) -> float:
@@ -79,6 +90,10 @@ class CellGraph:
         self.far = 2.0 * max(self.H - (solid.min() if solid.size else 0.0) - rise, 0.0)  # bounds every (4)
         first = int(math.floor((self.apex[0] - self.reach - terrain.x0) / terrain.cell)) - 1
         last = int(math.ceil((self.goal_x + 2.0 * self.reach + self.far - terrain.x0) / terrain.cell)) + 1
+        if last - first + 1 > MAX_CELLS:
+            raise GraphTooLarge(f"the energy graph from x={self.apex[0]:g} to x={self.goal_x:g} at energy height "
+                                f"{self.H - ENERGY_SLACK:.4g} m would have {last - first + 1} cells of "
+                                f"{terrain.cell:g} m, more than {MAX_CELLS}")
         idx = np.arange(first, last + 1)
         self.lo = terrain.x0 + idx * terrain.cell
         self.hi = self.lo + terrain.cell
@@ -86,14 +101,16 @@ class CellGraph:
         self.top = self.h + rise                 # the least body height of a touchdown or liftoff on the cell
         self.landable = (self.h > terrain.ditch_height) & (self.top < self.H)
         cells = np.flatnonzero(self.landable)
+        self._levels, self._rank = np.unique(self.h, return_inverse=True)
         self.limit = np.full(self.h.size, -np.inf)
         for i in cells:
             a = self.hi[i] + self.reach
             self.limit[i] = max(self.fly_limit(a), a)     # an empty stretch is always flown over
         self.starts = self.first_touchdowns()
         self.edges = np.zeros((self.h.size, self.h.size), dtype=bool)
-        if cells.size:
-            i, j = cells[:, None], cells[None, :]
+        j = cells[None, :]
+        for rows in np.array_split(cells, max(1, cells.size // EDGE_ROWS)) if cells.size else ():
+            i = rows[:, None]   # a block of rows at a time: the float temporaries stay EDGE_ROWS x cells
             span = 2.0 * np.sqrt((self.H - self.top[i]) * (self.H - self.top[j]))
             self.edges[i, j] = ((self.lo[j] - self.hi[i] <= 2.0 * self.reach + span)
                                 & (self.hi[j] >= self.lo[i] - 2.0 * self.reach)
@@ -103,12 +120,13 @@ class CellGraph:
 
     def fly_limit(self, a: float) -> float:
         """(5): the largest b such that one flight can cover the open stretch (a, b): for every pair of cells
-        p <= q meeting it, min(hi_q, b) - max(lo_p, a) <= 2 (H - min(h_p, h_q)) (+ slack)."""
-        k = np.flatnonzero((self.hi > a) & (self.lo < a + 2.0 * self.reach + self.far + 2.0 * self.H + 1.0))
-        lo, hi, h = np.maximum(self.lo[k], a), self.hi[k], self.h[k]
-        cap = lo[:, None] + 2.0 * (self.H - np.minimum(h[:, None], h[None, :])) + 2.0 * GEOMETRY_SLACK
-        fails = np.triu(cap < hi[None, :])                       # pair (p, q) fails once b passes cap and lo_q
-        return float(np.min(np.where(fails, np.maximum(self.lo[k][None, :], cap), np.inf), initial=np.inf))
+        p <= q meeting it, min(hi_q, b) - max(lo_p, a) <= 2 (H - min(h_p, h_q)) (+ slack). Its work grows as n log n
+        in the n cells within a flight's range of a (``planners.search.flight_limit``), not as n^2."""
+        from planners.search.flight_limit import first_failing_pair   # compiled on first use: importing stays light
+
+        bound = a + 2.0 * self.reach + self.far + 2.0 * self.H + 1.0
+        return float(first_failing_pair(float(a), bound, self.lo, self.hi, self.h, self._rank, self._levels.size,
+                                        self.H, 2.0 * GEOMETRY_SLACK))
 
     def flies_over(self, a: float, b: float) -> bool:
         return b <= a or b <= self.fly_limit(a)
@@ -142,6 +160,14 @@ class CellGraph:
             seen |= new
             todo.extend(np.flatnonzero(new).tolist())
         return seen
+
+
+def cell_graph(apex, terrain: Terrain, goal_x: float, params: SlipParams) -> CellGraph | None:
+    """The CellGraph of a start, or None where it would have more than MAX_CELLS cells."""
+    try:
+        return CellGraph(apex, terrain, goal_x, params)
+    except GraphTooLarge:
+        return None
 
 
 class Coreach:

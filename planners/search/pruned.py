@@ -27,7 +27,7 @@ import numpy as np
 from drakeslip.compiled import compiling
 
 from planners.base import Problem
-from planners.search.energy_graph import CellGraph, Coreach
+from planners.search.energy_graph import CellGraph, Coreach, GraphTooLarge
 from planners.search.tree import SearchResult, SearchTree
 
 # Node budget of the stage: about a second on one core (0.2 ms a node: some 20 candidates aimed and flown). The
@@ -43,14 +43,18 @@ def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes:
     """The stage from ``problem``'s start, with Step-space's grid ``settings`` (``StepSpacePlanner.core_settings``)
     and ``controller``, on the compiled core (``planners.core.pruned``); stops at the first sequence whose foothold
     passes the target (or whose hop lands past the window), an empty queue ("exhausted"), no path in the energy graph
-    ("unreachable"), ``max_nodes`` expansions or the problem's deadline. Adds the controller's and the step map's
+    ("unreachable"), ``max_nodes`` expansions or the problem's deadline; it is skipped when the energy graph would be
+    too large (``energy_graph.MAX_CELLS``). Adds the controller's and the step map's
     time to ``problem.timing``."""
     from planners.core.grid import MIN_SPEED as MIN_SPEED_FIELD   # the compiled core, loaded on first use
     from planners.core.pruned import pruned_best_first
     from planners.core.search import STOPS, reach_angles, terrain_arrays, tree_of
 
     units, params, terrain = problem.units, problem.params, problem.terrain
-    graph = CellGraph(problem.apex, terrain, problem.target_x, params)
+    try:
+        graph = CellGraph(problem.apex, terrain, problem.target_x, params)
+    except GraphTooLarge as error:   # the stage's pruning is the graph: without one it has nothing to add
+        return SearchResult(SearchTree(tuple(problem.apex)), 0, 0, f"skipped, {error}")
     if graph.wall() is not None or not np.any(graph.closure(graph.starts) & graph.ends):
         return SearchResult(SearchTree(tuple(problem.apex)), 0, 0, "unreachable")
     coreach = Coreach(graph)
