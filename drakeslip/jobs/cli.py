@@ -28,7 +28,6 @@ import sys
 from pathlib import Path
 
 from drakeslip.bounds import Bound
-from drakeslip.state import SimulationCrash
 from drakeslip.jobs.executors import make_executor
 from drakeslip.jobs.file_args import TerrainFile, clash, input_file, output_file, output_folder  # noqa: F401
 from drakeslip.jobs.files import printable
@@ -78,6 +77,8 @@ def reports_crashes(main):
     line on stderr, ``SCRIPT: simulation stopped: WHAT``, and exit status CRASHED instead of a traceback."""
     @functools.wraps(main)
     def run(argv=None):
+        from drakeslip.state import SimulationCrash   # here, not with this module: it loads numpy
+
         try:
             return main(argv)
         except SimulationCrash as crash:
