@@ -1,5 +1,6 @@
 """The scripts users run: every one answers --help with its defaults and without loading a heavy library, and
 the README's main job works."""
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -7,6 +8,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
 SCRIPTS = sorted(p.stem for p in (ROOT / "examples").glob("*.py"))
 HEAVY = ("torch", "pydrake", "matplotlib", "ray", "numba")
 
@@ -38,12 +40,24 @@ for name in {SCRIPTS!r}:
     assert run.returncode == 0, run.stderr[-1500:]
 
 
-def test_the_main_job_reaches_the_goal_and_writes_its_figure(tmp_path, run_script):
-    """README command 1: plan, hop on Drake, write the figure."""
-    out = tmp_path / "plan_and_hop.png"
-    code, stdout, err = run_script("plan_and_hop", "--terrain", "mixed", "--seed", "3", "--out", out)
+def readme_main_job() -> list[str]:
+    """The script and arguments of README command 1's job (the first bash block's first command, after its
+    install)."""
+    block = README.read_text().split("```bash\n", 1)[1].split("```", 1)[0]
+    command = next(line for line in block.splitlines() if line and not line.startswith("#"))
+    return shlex.split(command.split(" && ", 1)[1])[1:]
+
+
+def test_the_main_job_reaches_the_goal_and_writes_its_figure_and_replay(tmp_path, run_script):
+    """README command 1, as written, its outputs in a scratch folder: plan, hop, write the figure and the replay."""
+    script, *args = readme_main_job()
+    assert script == "examples/plan_and_hop.py" and "--out" in args and "--html" in args
+    outputs = {"--out": tmp_path / "figure.png", "--html": tmp_path / "replay.html"}
+    args = [str(outputs[args[i - 1]]) if i and args[i - 1] in outputs else a for i, a in enumerate(args)]
+    code, stdout, err = run_script("plan_and_hop", *args)
     assert code == 0, err
-    assert "reached the goal" in stdout and out.stat().st_size > 10_000
+    assert "reached the goal" in stdout
+    assert outputs["--out"].stat().st_size > 10_000 and outputs["--html"].stat().st_size > 10_000
 
 
 @pytest.mark.parametrize("args, message", [
