@@ -17,17 +17,18 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--cases", type=cli.positive_int, default=100, help="number of random hops")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the random hops")
     ap.add_argument("--families", type=cli.names, default="step",
                     help=f"terrain families, comma-separated, from {','.join(sorted(TERRAIN_FAMILIES))}")
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--tolerance", type=cli.positive, default=2e-3,
                     help="foothold / next-apex deviation [m] beyond which two successful hops disagree")
     ap.add_argument("--max-disagreement", type=cli.probability, default=0.01,

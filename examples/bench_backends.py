@@ -13,12 +13,13 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 
 N_ANGLES = 30  # the batch: this many leg angles from each apex, as a planner expands a node
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--cases", type=cli.positive_int, default=30, help="random hops timed on both backends")

@@ -21,11 +21,12 @@ from collections import Counter
 from dataclasses import asdict
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from planners.registry import check_label, labels, planner_name
 from verification.plan_check_options import MODES, TOLERANCE
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
@@ -33,7 +34,7 @@ def main(argv=None) -> int:
     ap.add_argument("--planners", type=cli.names, default=",".join(searched), help="planner labels, comma-separated")
     ap.add_argument("--cases", type=cli.positive_int, default=10, help="the first N cases (after --every)")
     ap.add_argument("--every", type=cli.positive_int, default=15, help="every K-th case of the suite")
-    cli.add_hopper(ap, default="the suite's")
+    cli_physics.add_hopper_argument(ap, default="the suite's")
     ap.add_argument("--mode", choices=MODES, default="auto", help="how the plans are executed (see verify_plan.py)")
     ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE, help="foothold and apex tolerance [m, m/s]")
     ap.add_argument("--out", type=cli.output_file(".json", beside=(".cases.jsonl",)), required=True,

@@ -20,6 +20,7 @@ import math
 import sys
 
 from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+from drakeslip import cli_physics
 
 import numpy as np
 
@@ -57,12 +58,12 @@ def stats(err) -> str:
             f"max {1e3 * e.max():9.3g} mm   {misses}")
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--controller", type=cli.input_file, default=DEFAULT_WEIGHTS,
                     help="controller weights file (default: the committed drakeslip/weights/controller.pt)")
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--samples", type=cli.integer(N_STEPPED), default=20000,
                     help=f"random hops per terrain kind, before keeping the successful ones (at least {N_STEPPED}: "
                          f"the stepped kind spreads them over {N_STEPPED} terrains)")

@@ -35,13 +35,14 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.noise import PROFILES
 from drakeslip.terrain import check_window
 from planners.closed_loop import ClosedLoopConfig
 from planners.registry import check_label, label_options, loop_settings
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
@@ -56,7 +57,7 @@ def main(argv=None) -> int:
                     help="results JSON (written atomically)")
     ap.add_argument("--options", default="{}",
                     help='planner options as JSON keyed by label, e.g. \'{"angle": {"branching": 15, "seed": 1}}\'')
-    cli.add_hopper(ap, default="the suite's")
+    cli_physics.add_hopper_argument(ap, default="the suite's")
     ap.add_argument("--controller", type=cli.input_file, default=None,
                     help="controller weights (default: the committed drakeslip/weights/controller.pt)")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
@@ -65,7 +66,7 @@ def main(argv=None) -> int:
     ap.add_argument("--map-filter", type=cli.positive_int, default=None,
                     help="cells of the median filter the robot runs on its sensed height map, odd (default: the "
                          f"label's preset's, else {ClosedLoopConfig.map_filter}: the map as sensed)")
-    ap.add_argument("--noise", type=cli.noise_profile, default="none",
+    ap.add_argument("--noise", type=cli_physics.noise_profile, default="none",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K (drakeslip/noise.py)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",

@@ -17,6 +17,7 @@ import json
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 
 OK, FAILED = 0, 1
 
@@ -34,7 +35,7 @@ def collect_hops(cases, goal_x: float, params) -> list:
     return hops
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suites", default="suites/ditch.json,suites/step.json", help="suites whose cases to run")

@@ -22,6 +22,7 @@ import os
 import time
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from planners.learned.training.config import DatasetConfig
 
 
@@ -59,7 +60,7 @@ def parser() -> cli.ArgumentParser:
                     help="initial apex speed: low,high [m/s]")
     ap.add_argument("--branching", type=cli.positive_int, default=DatasetConfig.branching,
                     help="--planner angle: leg angles tried per node")
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--friction", type=cli.positive, default=None,
                     help=f"friction coefficient of the searches and rollouts (default: the hopper's, "
                          f"{DatasetConfig.friction} for the paper's)")

@@ -21,6 +21,7 @@ import math
 import sys
 
 from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+from drakeslip import cli_physics
 
 import numpy as np
 
@@ -97,12 +98,12 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
         print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     families = ["flat", *sorted(ds.TERRAIN_FAMILIES)]
-    ap.add_argument("--terrain", type=cli.terrain_or_family(*families), default="step",
+    ap.add_argument("--terrain", type=cli_physics.terrain_or_family(*families), default="step",
                     help=f"terrain family ({', '.join(families)}) or terrain file (a height profile)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="terrain seed")
     ap.add_argument("--hops", type=cli.positive_int, default=10, help="number of hops to simulate")
@@ -110,10 +111,10 @@ def main(argv=None) -> int:
     ap.add_argument("--anim", type=cli.output_file(".gif"), default=None, help="also write an animation (GIF)")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay (self-contained HTML)")
-    ap.add_argument("--x0", type=cli.physical(POSITION), default=0.0, help="start apex x [m]")
-    ap.add_argument("--z", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--x0", type=cli_physics.physical(POSITION), default=0.0, help="start apex x [m]")
+    ap.add_argument("--z", type=cli_physics.physical(POSITION), default=None,
                     help="start apex height, absolute [m] (default: 0.75 m above the ground, in the hopper's units)")
-    ap.add_argument("--xdot", type=cli.physical(SPEED, positive=True), default=None,
+    ap.add_argument("--xdot", type=cli_physics.physical(SPEED, positive=True), default=None,
                     help="start apex speed [m/s], also the lookahead's nominal speed (default: 1.5, in the hopper's "
                          "units)")
     args = ap.parse_args(argv)
@@ -124,7 +125,7 @@ def main(argv=None) -> int:
 
     params = ds.SlipParams() if args.hopper is None else args.hopper.params
     units = units_of(params)
-    if isinstance(args.terrain, cli.TerrainFile):
+    if isinstance(args.terrain, cli_physics.TerrainFile):
         terrain, args.terrain = args.terrain.terrain, f"file {args.terrain.path}"
     elif args.terrain == "flat":
         terrain = ds.Terrain.flat() if units.length == 1.0 else scaled_terrain(ds.Terrain.flat(), units.length)

@@ -19,6 +19,7 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 
 OK, FAILED = cli.OK, cli.FAILED
 
@@ -94,7 +95,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     return planner_system, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--planner", default="step@robust", help="a registered planner label")

@@ -16,12 +16,13 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    cli.add_hopper(ap, default="the drawn hoppers")
+    cli_physics.add_hopper_argument(ap, default="the drawn hoppers")
     ap.add_argument("--hoppers", type=cli.non_negative_int, default=4, help="random hoppers after the two corners")
     ap.add_argument("--seed", type=cli.non_negative_int, default=35, help="seed of the hopper draws")
     ap.add_argument("--no-corners", action="store_true", help="only the random hoppers")

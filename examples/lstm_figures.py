@@ -16,6 +16,7 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli  # before numpy: a Ctrl-C while it loads is one line (drakeslip/jobs/cli.py)
+from drakeslip import cli_physics
 
 import numpy as np
 
@@ -95,7 +96,7 @@ def fig3(planner, args):
     fig.savefig(args.out / FIGURES[1], dpi=110)
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--out", type=cli.output_folder, default="docs", help="folder the two figures are written to")

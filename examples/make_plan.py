@@ -24,26 +24,27 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.bounds import POSITION, SPEED
 from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ground = ap.add_mutually_exclusive_group(required=True)
     ground.add_argument("--suite", type=cli.input_file, help="suite file (drakeslip-suite/1 JSON)")
-    ground.add_argument("--terrain", type=cli.terrain_or_family(), help="terrain file (a height profile)")
+    ground.add_argument("--terrain", type=cli_physics.terrain_or_family(), help="terrain file (a height profile)")
     ap.add_argument("--case", default=None, help="with --suite: case index (0-based) or case id")
-    cli.add_hopper(ap, default="the suite's, else the paper's")
-    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+    cli_physics.add_hopper_argument(ap, default="the suite's, else the paper's")
+    ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
                     help="with --terrain: start apex x [m] (default: plan_and_hop.py's)")
-    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
+    ap.add_argument("--speed", type=cli_physics.physical(SPEED, positive=True), default=None,
                     help="with --terrain: start apex speed [m/s] (default: plan_and_hop.py's, made the hopper's)")
-    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
+    ap.add_argument("--height", type=cli_physics.physical(POSITION, positive=True), default=None,
                     help="with --terrain: start apex height above the ground [m] (default: plan_and_hop.py's)")
-    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--goal", type=cli_physics.physical(POSITION), default=None,
                     help="with --terrain: goal x [m] (default: plan_and_hop.py's, made the hopper's)")
     ap.add_argument("--planner", required=True, help=f"planner label: one of {', '.join(labels())}, or NAME@VARIANT")
     ap.add_argument("--options", default="{}",

@@ -27,6 +27,7 @@ import sys
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.bounds import POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
@@ -42,14 +43,14 @@ def main(argv=None) -> int:
                                                                            COMMITTED_SEEDS.items()))
     ap.add_argument("--terrains", type=count_or_folder, default=PAPER_TERRAINS,
                     help="terrains per suite, or a folder of terrain files making one suite")
-    cli.add_hopper(ap)
-    ap.add_argument("--speeds", type=cli.numbers(None, cli.physical(SPEED, positive=True)), default=None,
+    cli_physics.add_hopper_argument(ap)
+    ap.add_argument("--speeds", type=cli.numbers(None, cli_physics.physical(SPEED, positive=True)), default=None,
                     help=f"apex speeds of the starts, m/s, comma-separated (default: {PAPER_SPEEDS})")
-    ap.add_argument("--heights", type=cli.numbers(None, cli.physical(POSITION, positive=True)), default=None,
+    ap.add_argument("--heights", type=cli.numbers(None, cli_physics.physical(POSITION, positive=True)), default=None,
                     help=f"apex heights of the starts, m, comma-separated (default: {PAPER_HEIGHTS})")
-    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
                     help="with --terrains DIR: x of the starts [m] (default: -1, made the hopper's)")
-    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--goal", type=cli_physics.physical(POSITION), default=None,
                     help="with --terrains DIR: goal x [m] (default: 10, the course made the hopper's)")
     ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)

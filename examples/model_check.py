@@ -27,11 +27,12 @@ from __future__ import annotations
 import sys
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.jobs.files import read_json
 from verification.model_check import DEFAULT_BUDGET
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite JSON file (format drakeslip-suite/1)")
@@ -57,7 +58,7 @@ def main(argv=None) -> int:
                     help="comma-separated results JSON files of examples/evaluate.py on the same suite: report "
                          "the cases a planner crossed that the oracle proved not traversable (exit 1 if any) or "
                          "found no plan for on its grid, and those it failed that the oracle crossed")
-    cli.add_hopper(ap, default="the suite's; another is refused in one line")
+    cli_physics.add_hopper_argument(ap, default="the suite's; another is refused in one line")
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)

@@ -15,6 +15,7 @@ import sys
 import time
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 
 OK, FAILED = cli.OK, cli.FAILED
 SETTLING_HOPS = 5   # the hops from the start (body level at an apex already at speed) to the gait's own rhythm
@@ -36,7 +37,7 @@ def _hops(text: str) -> int:
     return int(text)
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--speeds", type=_speeds, default="0,1,2,3", help="forward speeds [m/s], comma-separated")

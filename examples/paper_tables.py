@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from planners.registry import check_label, planner_name
 from verification.paper import TABLES, TITLES, reported
 
@@ -68,7 +69,7 @@ def suite_files(text: str) -> list:
     return [cli.input_file(name) for name in cli.names(text)]
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--ditch", type=cli.input_file, default="suites/ditch.json", help="Table II's suite")

@@ -30,6 +30,7 @@ import sys
 from dataclasses import asdict
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite_draw import DEMO_COURSE, DEMO_HEIGHT, DEMO_SPEED
@@ -40,29 +41,29 @@ from planners.registry import check_label, loop_settings
 FIGURE = (".png", ".pdf", ".svg")
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
-    cli.add_hopper(ap)
-    ap.add_argument("--terrain", type=cli.terrain_or_family(*sorted(TERRAIN_FAMILIES)), default="mixed",
+    cli_physics.add_hopper_argument(ap)
+    ap.add_argument("--terrain", type=cli_physics.terrain_or_family(*sorted(TERRAIN_FAMILIES)), default="mixed",
                     help=f"terrain family ({', '.join(sorted(TERRAIN_FAMILIES))}) or terrain file (a height profile)")
     ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed (of a terrain family)")
     ap.add_argument("--planner", default="step@robust", help="planner label (a name, a preset or NAME@VARIANT)")
-    ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
+    ap.add_argument("--noise", type=cli_physics.noise_profile, default="realistic",
                     help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py)")
     ap.add_argument("--noise-seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
                          f"period, else {EXECUTED_PER_PLAN}, the paper's)")
-    ap.add_argument("--start-x", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
                     help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground)")
-    ap.add_argument("--speed", type=cli.physical(SPEED, positive=True), default=None,
+    ap.add_argument("--speed", type=cli_physics.physical(SPEED, positive=True), default=None,
                     help=f"initial apex forward speed [m/s] (default: {DEMO_SPEED:g}, made the hopper's)")
-    ap.add_argument("--height", type=cli.physical(POSITION, positive=True), default=None,
+    ap.add_argument("--height", type=cli_physics.physical(POSITION, positive=True), default=None,
                     help=f"initial apex height above the ground [m] (default: {DEMO_HEIGHT:g}, made the hopper's)")
-    ap.add_argument("--goal", type=cli.physical(POSITION), default=None,
+    ap.add_argument("--goal", type=cli_physics.physical(POSITION), default=None,
                     help=f"goal x [m], on the terrain (default: {DEMO_COURSE:g} m from the start, made the hopper's)")
-    ap.add_argument("--friction", type=cli.physical(FRICTION), default=None,
+    ap.add_argument("--friction", type=cli_physics.physical(FRICTION), default=None,
                     help="Coulomb friction coefficient at the foot (default: the hopper's, 0.8 for the paper's)")
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,

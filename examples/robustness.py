@@ -24,16 +24,17 @@ import sys
 import time
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.noise import PROFILES
 from drakeslip.terrain import check_window
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
-    cli.add_hopper(ap, default="the plan file's")
-    ap.add_argument("--noise", type=cli.noise_profile, default="realistic",
+    cli_physics.add_hopper_argument(ap, default="the plan file's")
+    ap.add_argument("--noise", type=cli_physics.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
     ap.add_argument("--map-filter", type=cli.positive_int, default=1,
                     help="cells of the median filter each robot runs on its sensed height map, odd (1: the map as "

@@ -32,6 +32,7 @@ import time
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
 from drakeslip.jobs.steps import end_by_sigint, run_step, shown
@@ -64,7 +65,7 @@ def parser() -> cli.ArgumentParser:
                     help="chance a rollout hops to a random goal-reaching foothold, in round 0 and in DAgger rounds")
     ap.add_argument("--lr", type=cli.positive, nargs=2, default=(2e-3, 1e-3), metavar=("ROUND0", "LATER"),
                     help="peak learning rate of round 0 (a fresh model) and of the DAgger rounds (fine-tuning)")
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--hidden", type=cli.positive_int, default=256, help="LSTM units per layer")
     ap.add_argument("--channels", type=cli.positive_int, default=32, help="CNN feature maps")
     ap.add_argument("--threads", type=cli.non_negative_int, default=0,

@@ -31,6 +31,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.devices import DEVICE_HELP, torch_device
 from drakeslip.jobs.files import atomic_write, read_json, record_digest
 from drakeslip.terrain import TERRAIN_FAMILIES, check_families
@@ -87,7 +88,7 @@ def parser() -> cli.ArgumentParser:
                     help="shards and each round's weights")
     ap.add_argument("--model", type=cli.input_file, default=str(EXPERT_WEIGHTS),
                     help="the footstep model whose footholds are ranked")
-    cli.add_hopper(ap)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--families", type=cli.names, default="ditch,step,mixed",
                     help="terrain families, comma-separated")
     ap.add_argument("--rounds", type=cli.positive_int, default=4, help="DAgger rounds")

@@ -43,6 +43,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from drakeslip.jobs.files import sha256
 from planners.registry import label_options, planner_name
 from planners.trajopt.config import COLLOCATIONS, SEEDS, TrajoptConfig
@@ -66,7 +67,7 @@ def seed_labels(text: str) -> list[str]:
 def parser() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", required=True, type=cli.input_file, help="suite JSON file (format drakeslip-suite/1)")
-    cli.add_hopper(ap, default="the suite's; another is refused in one line")
+    cli_physics.add_hopper_argument(ap, default="the suite's; another is refused in one line")
     ap.add_argument("--cases", type=cli.positive_int, default=None,
                     help="how many of the selected cases (None: all)")
     ap.add_argument("--every", type=cli.positive_int, default=1,
@@ -147,7 +148,7 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = parser()
     args = ap.parse_args(argv)

@@ -26,18 +26,19 @@ import sys
 from dataclasses import replace
 
 from drakeslip.jobs import cli
+from drakeslip import cli_physics
 from verification.plan_check_options import MODES, TOLERANCE
 
 
-@cli.reports_crashes
+@cli_physics.reports_crashes
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 or /1 JSON)")
     ap.add_argument("--mode", choices=MODES, default="auto",
                     help="angles: the plan's leg angles open loop; footholds: its footholds through the controller; "
                          "auto: angles when the plan has them all")
-    cli.add_hopper(ap, default="the plan file's")
-    ap.add_argument("--terrain", type=cli.terrain_or_family(), default=None,
+    cli_physics.add_hopper_argument(ap, default="the plan file's")
+    ap.add_argument("--terrain", type=cli_physics.terrain_or_family(), default=None,
                     help="check the plan on this terrain file's ground instead of the plan file's")
     ap.add_argument("--tolerance", type=cli.positive, default=TOLERANCE,
                     help="how far [m, m/s] a touchdown or apex may be from the plan's")

@@ -1,35 +1,34 @@
-"""What every script of the toolkit shares: argument types that reject bad values up front, the flags that mean
-the same everywhere, and the exit codes.
+"""What every script of the toolkit shares, knowing nothing of the physics: argument types that reject bad values
+up front, the flags that mean the same everywhere, and the exit codes. The arguments that name physical things (a
+hopper, a terrain, a noise profile, a number inside a physical bound) are ``drakeslip.cli_physics``'s.
 
 Exit status: 0 success; 1 a run or check that failed (no plan, a counterexample, a failed hop), or a file that could
 not be written or read once the work started (a full disk: ``OSError``); 2 a usage or input error, reported in one
 line before any work starts; 3 a simulation that crashed or timed out (its integrator raised, its derivatives were
-NaN, or a hop outlasted the simulator's limit: ``drakeslip.state.SimulationCrash``), reported in one line naming what
-failed (``reports_crashes``): no verdict on the plan or the hopper. Importing this module makes two errors one line
-on stderr instead of a traceback, for the rest of the script: Ctrl-C (SIGINT) says what was saved (``interrupted``),
-leaves no worker process behind and ends the process by SIGINT, as an interrupted program does, so a shell reports
-status 130 (128 + SIGINT) and stops a script that runs it; an ``OSError`` (no space left on the device, a file that
-cannot be written) names the file and the reason, says what was saved, and ends with status 1: the command was
-right, the run could not finish, and the same command resumes it once the cause is fixed (every result file is
-written atomically, so none is left half written). Every script imports this module before anything else of the
-toolkit, so that holds from its first statement; ``import drakeslip`` loads nothing heavy. Heavy libraries (torch,
-pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast. An argument that names an output
-file which is an input of another argument (or another output) is refused in one line
-(``drakeslip.jobs.file_args``).
+NaN, or a hop outlasted the simulator's limit), reported in one line naming what failed
+(``drakeslip.cli_physics.reports_crashes``): no verdict on the plan or the hopper. Importing this module makes two
+errors one line on stderr instead of a traceback, for the rest of the script: Ctrl-C (SIGINT) says what was saved
+(``interrupted``), leaves no worker process behind and ends the process by SIGINT, as an interrupted program does,
+so a shell reports status 130 (128 + SIGINT) and stops a script that runs it; an ``OSError`` (no space left on the
+device, a file that cannot be written) names the file and the reason, says what was saved, and ends with status 1:
+the command was right, the run could not finish, and the same command resumes it once the cause is fixed (every
+result file is written atomically, so none is left half written). Every script imports this module before anything
+else of the toolkit, so that holds from its first statement; ``import drakeslip`` loads nothing heavy. Heavy
+libraries (numpy, torch, pydrake, matplotlib, ray) are not imported here, so a script's ``--help`` is fast. An
+argument that names an output file which is an input of another argument (or another output) is refused in one
+line (``drakeslip.jobs.file_args``).
 """
 from __future__ import annotations
 
 import argparse
 import errno
-import functools
 import math
 import shlex
 import sys
 from pathlib import Path
 
-from drakeslip.bounds import Bound
 from drakeslip.jobs.executors import make_executor
-from drakeslip.jobs.file_args import TerrainFile, clash, input_file, output_file, output_folder  # noqa: F401
+from drakeslip.jobs.file_args import clash, input_file, output_file, output_folder  # noqa: F401
 from drakeslip.jobs.files import printable
 from drakeslip.jobs.runner import saved_so_far
 
@@ -70,21 +69,6 @@ class ArgumentParser(argparse.ArgumentParser):
         problem = clash({option(dest): value for dest, value in vars(args).items()}, extra_outputs)
         if problem:
             self.error(problem)
-
-
-def reports_crashes(main):
-    """A script's ``main(argv)``, with a simulation that crashed or timed out (``SimulationCrash``) reported as one
-    line on stderr, ``SCRIPT: simulation stopped: WHAT``, and exit status CRASHED instead of a traceback."""
-    @functools.wraps(main)
-    def run(argv=None):
-        from drakeslip.state import SimulationCrash   # here, not with this module: it loads numpy
-
-        try:
-            return main(argv)
-        except SimulationCrash as crash:
-            sys.stderr.write(f"{Path(sys.argv[0]).name}: simulation stopped: {crash}\n")
-            return CRASHED
-    return run
 
 
 def report_errors() -> None:
@@ -154,12 +138,6 @@ def number(low: float | None = None, high: float | None = None, strict_low: bool
     return parse
 
 
-def physical(bound: Bound, positive: bool = False):
-    """An argument type: a finite number inside a physical bound of ``drakeslip.bounds`` (above 0 if
-    ``positive``)."""
-    return number(0.0 if positive else bound.low, bound.high, strict_low=positive)
-
-
 positive_int = integer(1)
 non_negative_int = integer(0)
 positive = number(0.0, strict_low=True)
@@ -178,52 +156,12 @@ def numbers(count: int | None, each=finite):
     return parse
 
 
-def noise_profile(text: str):
-    """An argument type: a noise profile by name, or NAME*K (drakeslip.noise.profile)."""
-    from drakeslip.noise import profile
-
-    try:
-        return profile(text)
-    except ValueError as error:
-        raise argparse.ArgumentTypeError(str(error)) from None
-
-
 def names(text: str) -> list[str]:
     """An argument type: a non-empty comma-separated list of names."""
     items = [t.strip() for t in text.split(",") if t.strip()]
     if not items:
         raise argparse.ArgumentTypeError(f"must name at least one entry, got {text!r}")
     return items
-
-
-def add_hopper(ap: argparse.ArgumentParser, default: str = "the paper's") -> None:
-    """``--hopper``: a hopper file, a hopper folder or a packaged hopper's name, read up front
-    (``drakeslip.hopper_file.hopper_argument``: a bad one is one line, exit status 2); None when not given."""
-    from drakeslip.hopper_file import hopper_argument, packaged_hoppers
-
-    ap.add_argument("--hopper", type=hopper_argument, default=None,
-                    help="the hopper: a hopper file (JSON or TOML: mass, leg_length, stiffness, ...; "
-                         "drakeslip/hopper_file.py), a hopper folder (examples/train_hopper.py: the file and the "
-                         f"weights trained for it), or a packaged hopper ({', '.join(packaged_hoppers())}) "
-                         f"(default: {default})")
-
-
-def terrain_or_family(*families: str):
-    """An argument type: one of ``families`` (returned as the name), or a terrain file (a height profile or
-    heights per cell, ``drakeslip.terrain_file``; returned as a TerrainFile); a malformed file is one line naming
-    its row."""
-    def parse(text: str):
-        from drakeslip.terrain_file import terrain_argument
-
-        if text in families:
-            return text
-        if not Path(text).is_file():
-            if not families:
-                raise argparse.ArgumentTypeError(f"no such terrain file: {text!r}")
-            raise argparse.ArgumentTypeError(f"{text!r} is neither a terrain family ({', '.join(families)}) nor a "
-                                             f"terrain file")
-        return TerrainFile(Path(text), terrain_argument(text))
-    return parse
 
 
 def add_parallel(ap: argparse.ArgumentParser, jobs: int = 1) -> None:

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import argparse
 import os
-from dataclasses import dataclass
 from pathlib import Path
 
 
@@ -32,17 +31,6 @@ class OutputPath(type(Path())):
 class OutputFolder(type(Path())):
     """A folder an argument names for writing into (``output_folder``); the files a script writes there are its
     own to name (``clash``'s ``extra_outputs``)."""
-
-
-@dataclass(frozen=True)
-class TerrainFile:
-    """A terrain read from a file (``cli.terrain_or_family``): its path and its Terrain."""
-
-    path: Path
-    terrain: object
-
-    def input_files(self) -> tuple:
-        return (self.path,)
 
 
 def input_file(text: str) -> InputPath:
