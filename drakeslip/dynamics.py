@@ -14,7 +14,8 @@ import math
 from drakeslip.compiled import compiled
 
 
-MASS, LEG_LENGTH, STIFFNESS, GRAVITY, FRICTION, MIN_LEG_LENGTH = range(6)
+# The index of each field in p (I_ for index: p[I_LEG_LENGTH] is the rest length L0).
+I_MASS, I_LEG_LENGTH, I_STIFFNESS, I_GRAVITY, I_FRICTION, I_MIN_LEG_LENGTH = range(6)
 
 # A foot or body that reaches terrain by crossing a cell edge more than this far below the new cell's top
 # hit the vertical face; within it, it landed on the corner. Both backends classify contacts with it.
@@ -39,14 +40,14 @@ def stance_derivatives(x, z, xdot, zdot, foot_x, foot_z, p):
     dx = x - foot_x
     dz = z - foot_z
     leg = math.sqrt(dx * dx + dz * dz)
-    push = p[STIFFNESS] * (p[LEG_LENGTH] - leg) / (p[MASS] * leg)
-    return xdot, zdot, push * dx, push * dz - p[GRAVITY]
+    push = p[I_STIFFNESS] * (p[I_LEG_LENGTH] - leg) / (p[I_MASS] * leg)
+    return xdot, zdot, push * dx, push * dz - p[I_GRAVITY]
 
 
 @compiled()
 def foot_position(x, z, leg_angle, p):
     """Foot of a straight leg at rest length: theta from vertical, positive = foot ahead."""
-    return x + p[LEG_LENGTH] * math.sin(leg_angle), z - p[LEG_LENGTH] * math.cos(leg_angle)
+    return x + p[I_LEG_LENGTH] * math.sin(leg_angle), z - p[I_LEG_LENGTH] * math.cos(leg_angle)
 
 
 @compiled()
@@ -65,10 +66,10 @@ def leg_rate(x, z, xdot, zdot, foot_x, foot_z):
 @compiled()
 def mechanical_energy(x, z, xdot, zdot, foot_x, foot_z, in_stance, p):
     """Kinetic + gravitational (absolute z) + spring energy [J]."""
-    energy = 0.5 * p[MASS] * (xdot * xdot + zdot * zdot) + p[MASS] * p[GRAVITY] * z
+    energy = 0.5 * p[I_MASS] * (xdot * xdot + zdot * zdot) + p[I_MASS] * p[I_GRAVITY] * z
     if in_stance:
-        compression = p[LEG_LENGTH] - leg_length(x, z, foot_x, foot_z)
-        energy += 0.5 * p[STIFFNESS] * compression * compression
+        compression = p[I_LEG_LENGTH] - leg_length(x, z, foot_x, foot_z)
+        energy += 0.5 * p[I_STIFFNESS] * compression * compression
     return energy
 
 
@@ -90,19 +91,19 @@ def foot_clearance(x, z, leg_angle, p, heights, x0, cell):
 @compiled()
 def leg_extension(x, z, foot_x, foot_z, p):
     """l - L0: reaches 0 from below at liftoff."""
-    return leg_length(x, z, foot_x, foot_z) - p[LEG_LENGTH]
+    return leg_length(x, z, foot_x, foot_z) - p[I_LEG_LENGTH]
 
 
 @compiled()
 def stroke_left(x, z, foot_x, foot_z, p):
     """l - l_min: reaches 0 when the spring bottoms out."""
-    return leg_length(x, z, foot_x, foot_z) - p[MIN_LEG_LENGTH]
+    return leg_length(x, z, foot_x, foot_z) - p[I_MIN_LEG_LENGTH]
 
 
 @compiled()
 def friction_margin(x, z, foot_x, foot_z, p):
     """mu (z - zf) - |x - xf|: negative when the (axial) leg force leaves the friction cone."""
-    return p[FRICTION] * (z - foot_z) - abs(x - foot_x)
+    return p[I_FRICTION] * (z - foot_z) - abs(x - foot_x)
 
 
 @compiled()

@@ -13,7 +13,7 @@ import numpy as np
 from numba import prange
 
 from drakeslip.compiled import compiled
-from drakeslip.dynamics import (FACE_TOLERANCE, GRAVITY, body_clearance, cell_index, classify_foot_contact,
+from drakeslip.dynamics import (FACE_TOLERANCE, I_GRAVITY, body_clearance, cell_index, classify_foot_contact,
                        foot_clearance, foot_position, friction_margin, leg_extension, leg_rate, stance_derivatives,
                        stroke_left)
 
@@ -145,7 +145,7 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
 def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stance_steps, out):
     """One apex-to-apex step; writes (code, touchdown_x, x, z, xdot, zdot, time, work) into ``out``.
     On success (x, z, xdot) is the next apex; on failure (x, z, xdot, zdot) is the state at the failure."""
-    g = p[GRAVITY]
+    g = p[I_GRAVITY]
     out[OUT_TD_X] = math.nan
     out[OUT_WORK] = 0.0
     out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_ZDOT], out[OUT_TIME] = ax, az, axdot, 0.0, 0.0

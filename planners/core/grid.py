@@ -8,7 +8,7 @@ import math
 import numpy as np
 
 from drakeslip.compiled import compiled
-from drakeslip.dynamics import GRAVITY, LEG_LENGTH, height_at
+from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
 
@@ -23,7 +23,7 @@ SPACING, PAD, UNTIL, EDGE, MAX_ANGLE, TOLERANCE, MIN_SPEED, WINDOW_END, AT_FAILU
 def reach_bounds(x, z, v, terr, p, sin_a, cos_a):
     """``planners.search.step_space.touchdown_range`` with the reach angles' sines and cosines given."""
     heights, x0, cell, ditch, solid_min = terr
-    leg, g = p[LEG_LENGTH], p[GRAVITY]
+    leg, g = p[I_LEG_LENGTH], p[I_GRAVITY]
     n = heights.shape[0]
     far = x + leg + v * math.sqrt(2 * max(z - solid_min, 0.0) / g)
     first = min(max(int(math.floor((x - leg - x0) / cell)), 0), n - 1)

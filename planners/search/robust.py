@@ -37,7 +37,7 @@ import numpy as np
 
 from drakeslip.compiled import compiled
 from drakeslip import SlipParams, Terrain
-from drakeslip.dynamics import FRICTION, MASS, STIFFNESS, height_at
+from drakeslip.dynamics import I_FRICTION, I_MASS, I_STIFFNESS, height_at
 from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
                                  step_one)
 from drakeslip.noise import PROFILES, NoiseProfile, friction_factor
@@ -144,8 +144,8 @@ class Robustness:
         # world: this runs at every search a robust level starts
         hoppers = np.tile(params.as_array(), (len(variants), 1))
         for j, (ks, ms, _) in enumerate(variants):
-            hoppers[j, STIFFNESS], hoppers[j, MASS] = params.stiffness * ks, params.mass * ms
-            hoppers[j, FRICTION] = friction
+            hoppers[j, I_STIFFNESS], hoppers[j, I_MASS] = params.stiffness * ks, params.mass * ms
+            hoppers[j, I_FRICTION] = friction
         solid = terrain.heights > terrain.ditch_height
         heights = np.stack([np.where(solid, terrain.heights + rise, terrain.heights) for *_, (rise, _) in variants])
         heights.setflags(write=False)   # as a Terrain's: the compiled step map is compiled once, for read-only heights
