@@ -51,7 +51,7 @@ def foot_position(x, z, leg_angle, p):
 
 
 @compiled()
-def leg_length(x, z, foot_x, foot_z):
+def stance_leg_length(x, z, foot_x, foot_z):
     return math.sqrt((x - foot_x) ** 2 + (z - foot_z) ** 2)
 
 
@@ -68,7 +68,7 @@ def mechanical_energy(x, z, xdot, zdot, foot_x, foot_z, in_stance, p):
     """Kinetic + gravitational (absolute z) + spring energy [J]."""
     energy = 0.5 * p[I_MASS] * (xdot * xdot + zdot * zdot) + p[I_MASS] * p[I_GRAVITY] * z
     if in_stance:
-        compression = p[I_LEG_LENGTH] - leg_length(x, z, foot_x, foot_z)
+        compression = p[I_LEG_LENGTH] - stance_leg_length(x, z, foot_x, foot_z)
         energy += 0.5 * p[I_STIFFNESS] * compression * compression
     return energy
 
@@ -91,13 +91,13 @@ def foot_clearance(x, z, leg_angle, p, heights, x0, cell):
 @compiled()
 def leg_extension(x, z, foot_x, foot_z, p):
     """l - L0: reaches 0 from below at liftoff."""
-    return leg_length(x, z, foot_x, foot_z) - p[I_LEG_LENGTH]
+    return stance_leg_length(x, z, foot_x, foot_z) - p[I_LEG_LENGTH]
 
 
 @compiled()
 def stroke_left(x, z, foot_x, foot_z, p):
     """l - l_min: reaches 0 when the spring bottoms out."""
-    return leg_length(x, z, foot_x, foot_z) - p[I_MIN_LEG_LENGTH]
+    return stance_leg_length(x, z, foot_x, foot_z) - p[I_MIN_LEG_LENGTH]
 
 
 @compiled()

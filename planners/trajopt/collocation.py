@@ -87,8 +87,8 @@ def defect_sparsity(collocation: str, K: int) -> list:
 
 
 def interior_leg_lengths(K: int, h: float):
-    """Leg length (``dynamics.leg_length``) at the interior stance knots, over their (x, z) and the foot."""
-    leg_len = generic(dyn.leg_length)
+    """Leg length (``dynamics.stance_leg_length``) at the interior stance knots, over their (x, z) and the foot."""
+    leg_len = generic(dyn.stance_leg_length)
 
     def lengths(v):
         return leg_len(v[0:2 * (K - 1):2], v[1:2 * (K - 1):2], v[2 * (K - 1)], h)

@@ -48,7 +48,7 @@ def _stance_knots(s0, foot, params: SlipParams, tau: np.ndarray, max_time: float
     while t < max_time:
         prev, s = s, rk4_step(s, fx, fz, h, p)
         t += h
-        l_prev, l_new = dyn.leg_length(prev[0], prev[1], fx, fz), dyn.leg_length(s[0], s[1], fx, fz)
+        l_prev, l_new = dyn.stance_leg_length(prev[0], prev[1], fx, fz), dyn.stance_leg_length(s[0], s[1], fx, fz)
         if not l_new > 0.2 * params.min_leg_length:  # through the foot (or NaN): no stance to speak of
             return None
         if t > 5 * h and l_new >= L0 > l_prev:
@@ -72,7 +72,7 @@ def _stance_knots(s0, foot, params: SlipParams, tau: np.ndarray, max_time: float
         rate = dyn.leg_rate(x, z, xd, zd, fx, fz)
         if rate <= 0:
             break
-        duration -= (dyn.leg_length(x, z, fx, fz) - L0) / rate
+        duration -= (dyn.stance_leg_length(x, z, fx, fz) - L0) / rate
         path = knots(duration)
     return duration, path
 

@@ -9,7 +9,7 @@ Transcription (hop i = 0..N-1; apex 0 is the given start):
   the foot of the leg held at theta_i (``dynamics.foot_position``) is then at (f_i, h_i), h_i the segment's
   height; apex i+1 is the top of the parabola from the liftoff state S_i[K];
 * stance is direct collocation of ``dynamics.stance_derivatives`` with the foot pinned at (f_i, h_i)
-  (``collocation.py``). Liftoff is the leg back at rest length (``dynamics.leg_length``); at touchdown the leg
+  (``collocation.py``). Liftoff is the leg back at rest length (``dynamics.stance_leg_length``); at touchdown the leg
   must be compressing (``dynamics.leg_rate`` < 0);
 * along stance, at the knots: the leg stays ``stroke_margin`` above ``min_leg_length`` (no bottom-out) and no
   longer than rest length before liftoff, inside ``friction_fraction`` of the friction cone, and the body moves
@@ -121,7 +121,7 @@ class SlipTrajopt:
         p = params.as_array()
         L0, g, mu = params.leg_length, params.gravity, params.friction
         foot_pos = generic(dyn.foot_position)
-        leg_len, leg_rate = generic(dyn.leg_length), generic(dyn.leg_rate)
+        leg_len, leg_rate = generic(dyn.stance_leg_length), generic(dyn.leg_rate)
         prog = self.prog = MathematicalProgram()
         self.theta = prog.NewContinuousVariables(N, "theta")
         self.tf = prog.NewContinuousVariables(N, "tf")
