@@ -10,7 +10,7 @@ from drakeslip.params import SlipParams
 from drakeslip.state import ApexState, FailureMode, StepResult, check_apex, check_leg_angle
 from drakeslip.terrain import Terrain
 
-BACKENDS = ("fast", "drake")
+STEP_MAP_BACKENDS = ("fast", "drake")
 
 
 def step(apex, leg_angle: float, terrain: Terrain, params: SlipParams | None = None, backend: str = "fast",
@@ -26,7 +26,7 @@ def step(apex, leg_angle: float, terrain: Terrain, params: SlipParams | None = N
         from drakeslip.simulation import drake_step
 
         return drake_step(apex, leg_angle, terrain, params, **backend_options)
-    raise ValueError(f"unknown backend {backend!r}; choose one of {BACKENDS}")
+    raise ValueError(f"unknown backend {backend!r}; choose one of {STEP_MAP_BACKENDS}")
 
 
 @dataclass(frozen=True)

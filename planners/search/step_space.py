@@ -12,7 +12,7 @@ import numpy as np
 
 from drakeslip import StepLengthController, Terrain, step, step_batch
 from drakeslip.compiled import compiling
-from drakeslip.stepmap import BACKENDS
+from drakeslip.stepmap import STEP_MAP_BACKENDS
 
 from drakeslip.units import HopperUnits, units_of
 
@@ -91,8 +91,8 @@ class StepSpacePlanner(Planner):
         if self.robustness is not None and not isinstance(self.robustness, Robustness):
             raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
         self.fallback_nominal = bool(fallback_nominal)
-        if step_map not in BACKENDS:
-            raise ValueError(f"unknown step_map {step_map!r}; choose one of {BACKENDS}")
+        if step_map not in STEP_MAP_BACKENDS:
+            raise ValueError(f"unknown step_map {step_map!r}; choose one of {STEP_MAP_BACKENDS}")
         self.step_map = step_map
         self.controller = controller or StepLengthController.load_default()
         self.spacing = spacing
