@@ -21,7 +21,7 @@ from drakeslip.stepmap import step_batch
 from drakeslip.terrain import Terrain
 from drakeslip.units import units_of
 
-BACKENDS = ("fast", "drake", "multibody")
+ROLLOUT_BACKENDS = ("fast", "drake", "multibody")
 # A noisy command is clipped just short of a horizontal leg, the step map's domain; such a hop fails anyway.
 ANGLE_LIMIT = math.pi / 2 - 1e-9
 
@@ -85,8 +85,8 @@ def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, le
     """``rollout`` from each row of ``starts`` (n, 3), with per-draw errors ``angle_errors`` (n, hops) and
     ``apex_errors`` (n, hops, 3). On the fast backend all draws advance together, one batched step-map call per
     hop. A start that is not above the terrain fails its first hop with a TRIP (its foot starts below ground)."""
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend not in ROLLOUT_BACKENDS:
+        raise ValueError(f"backend must be one of {ROLLOUT_BACKENDS}, got {backend!r}")
     if (footholds is None) == (leg_angles is None):
         raise ValueError("give exactly one of footholds (through the controller) or leg_angles (open loop)")
     starts = np.asarray(starts, dtype=np.float64).reshape(-1, 3)

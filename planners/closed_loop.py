@@ -17,7 +17,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams
 from drakeslip.noise import NoiseProfile
-from drakeslip.rollout import BACKENDS, rollout
+from drakeslip.rollout import ROLLOUT_BACKENDS, rollout
 from drakeslip.terrain import check_window
 from drakeslip.units import units_of
 
@@ -64,8 +64,8 @@ class ClosedLoopConfig:
         return record
 
     def __post_init__(self):
-        if self.backend not in BACKENDS:
-            raise ValueError(f"backend must be one of {BACKENDS}, got {self.backend!r}")
+        if self.backend not in ROLLOUT_BACKENDS:
+            raise ValueError(f"backend must be one of {ROLLOUT_BACKENDS}, got {self.backend!r}")
         for name in ("executed_per_plan", "max_hops"):
             value = getattr(self, name)
             if isinstance(value, bool) or not isinstance(value, int) or value < 1:

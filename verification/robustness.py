@@ -17,7 +17,7 @@ import numpy as np
 
 from drakeslip import FailureMode, StepLengthController
 from drakeslip.noise import NoiseProfile
-from drakeslip.rollout import BACKENDS, rollout
+from drakeslip.rollout import ROLLOUT_BACKENDS, rollout
 from drakeslip.terrain import check_window
 
 from planners.formats.plan import PlanRecord
@@ -149,8 +149,8 @@ def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: i
         raise ValueError(f"n must be a positive integer, got {n!r}")
     if not isinstance(noise, NoiseProfile):
         raise TypeError(f"noise must be a drakeslip.noise.NoiseProfile, got {type(noise).__name__}")
-    if backend not in BACKENDS:
-        raise ValueError(f"backend must be one of {BACKENDS}, got {backend!r}")
+    if backend not in ROLLOUT_BACKENDS:
+        raise ValueError(f"backend must be one of {ROLLOUT_BACKENDS}, got {backend!r}")
     total = len(record.footholds)
     hops = total if hops is None else hops
     if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
