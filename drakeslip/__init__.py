@@ -15,8 +15,8 @@ _LAZY = {
     "StepResult": "drakeslip.state", "TERRAIN_FAMILIES": "drakeslip.terrain", "Terrain": "drakeslip.terrain",
     "ditch_world": "drakeslip.terrain", "mixed_world": "drakeslip.terrain", "step_world": "drakeslip.terrain",
     "step": "drakeslip.stepmap", "step_batch": "drakeslip.stepmap", "BatchStepResult": "drakeslip.stepmap",
-    "SlipHopper": "drakeslip.hopper", "simulate": "drakeslip.simulation", "SimulationResult": "drakeslip.simulation",
-    "StepLengthController": "drakeslip.controller",
+    "SlipHopper": "drakeslip.slip_hopper", "simulate": "drakeslip.simulation",
+    "SimulationResult": "drakeslip.simulation", "StepLengthController": "drakeslip.controller",
 }
 
 __all__ = ["SlipParams", "ApexState", "FailureMode", "StepResult", "Terrain", "ditch_world", "step_world",

@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip.hopper import HybridState, Mode
+from drakeslip.slip_hopper import HybridState, Mode
 from drakeslip.replay_scene import Y_HOPPER, Scene, animate, draw_scene, legend, points, pose, rgba, stroke_mesh, \
     write_page
 from drakeslip.simulation import SimulationResult

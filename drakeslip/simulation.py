@@ -10,7 +10,7 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import LogVectorOutput
 
-from drakeslip.hopper import ApexPolicy, HybridEvent, HybridState, Mode, SlipHopper
+from drakeslip.slip_hopper import ApexPolicy, HybridEvent, HybridState, Mode, SlipHopper
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState, FailureMode, SimulationCrash, StepResult, check_apex
 from drakeslip.terrain import Terrain

@@ -12,7 +12,7 @@ from matplotlib.animation import PillowWriter
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from drakeslip.hopper import HybridState, Mode
+from drakeslip.slip_hopper import HybridState, Mode
 from drakeslip.simulation import SimulationResult
 from drakeslip.terrain import Terrain
 

@@ -66,7 +66,7 @@ def test_energy_is_constant_along_the_drake_trajectory_in_flight_and_stance():
     """Between apexes too: the shared definition of the energy (spring included) is constant at every logged
     sample of a three-hop Drake run, so the stance equations and the reset maps agree with it."""
     from drakeslip.dynamics import mechanical_energy
-    from drakeslip.hopper import Mode
+    from drakeslip.slip_hopper import Mode
     from drakeslip.simulation import simulate
 
     sim = simulate((0.0, 0.6, 2.0), [0.25, 0.28, 0.22], ds.Terrain.flat(), PARAMS)

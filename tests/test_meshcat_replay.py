@@ -179,7 +179,7 @@ def test_every_failure_name_has_letters():
 
 
 def test_the_leg_is_drawn_at_its_length(failed_run):
-    from drakeslip.hopper import Mode
+    from drakeslip.slip_hopper import Mode
     from drakeslip.meshcat_replay import RETRACTED_FRACTION, leg_geometry
 
     p, h = failed_run.params, failed_run.hybrid

@@ -14,7 +14,7 @@ from typing import NamedTuple
 import numpy as np
 
 from drakeslip import dynamics as dyn
-from drakeslip.hopper import HybridState, Mode
+from drakeslip.slip_hopper import HybridState, Mode
 from drakeslip.simulation import SimulationResult
 from drakeslip.terrain import Terrain
 

@@ -27,7 +27,7 @@ import numpy as np
 
 from drakeslip import FailureMode, StepLengthController
 from drakeslip import dynamics as dyn
-from drakeslip.hopper import HybridState, Mode
+from drakeslip.slip_hopper import HybridState, Mode
 from drakeslip.hopper_file import Hopper, check_same_hopper
 from drakeslip.jobs.runner import finite
 from drakeslip.rollout import rollout

@@ -1,6 +1,6 @@
 """A sound energy argument: the terrain a passive SLIP hopper can never cross, whatever its leg angles.
 
-The model (``drakeslip.dynamics``, ``drakeslip.hopper``) is a point mass on a massless, lossless spring leg. Flight
+The model (``drakeslip.dynamics``, ``drakeslip.slip_hopper``) is a point mass on a massless, lossless spring leg. Flight
 is ballistic, stance is spring + gravity, and touchdown and liftoff happen at rest leg length L0 with the body
 state continuous, so E = m g z + m (xdot^2 + zdot^2) / 2 + k (L0 - l)^2 / 2 (z absolute) keeps the start's value
 at every instant. Let H = E / (m g) = z0 + xdot0^2 / (2 g) be the start's *energy height*, c = cos(atan mu) and
