@@ -45,10 +45,11 @@ FIELDS = ("format", "name", *PARAM_FIELDS, "stroke")
 
 
 @dataclass(frozen=True)
-class Hopper:
-    """A hopper: its ``params``, its ``name``, and where it was read from: ``sha256`` of the hopper file's bytes,
-    ``source`` (the file) and ``folder`` (the hopper folder, None for a lone file). A hopper built in code or read
-    back from a record has no source."""
+class NamedHopper:
+    """A hopper as the toolkit names it, what a hopper file holds: its ``params``, its ``name``, and where it was
+    read from: ``sha256`` of the hopper file's bytes, ``source`` (the file) and ``folder`` (the hopper folder, None
+    for a lone file). A hopper built in code or read back from a record has no source. (The Drake system that
+    simulates one is ``drakeslip.slip_hopper.SlipHopper``; the robot's model, ``drakeslip/multibody/hopper.sdf``.)"""
 
     params: SlipParams
     name: str
@@ -116,7 +117,7 @@ def hopper_from_dict(d, source: str, default_name: str) -> tuple[SlipParams, str
     return params_from_fields({k: v for k, v in d.items() if k not in ("format", "name")}, source), name
 
 
-def load_hopper(path) -> Hopper:
+def load_hopper(path) -> NamedHopper:
     """The hopper in ``path``: a hopper file (``.toml`` read as TOML, anything else as JSON) or a hopper folder.
     A missing path raises FileNotFoundError; a malformed file, or a folder's hopper file that does not match its
     manifest, raises ValueError naming the file (and the field)."""
@@ -146,7 +147,7 @@ def load_hopper(path) -> Hopper:
             raise ValueError(f"{source} does not match its SHA-256 in {folder / MANIFEST} (expected "
                              f"{expected[:16]}..., got {digest[:16]}...): it was changed after the folder was written")
     params, name = hopper_from_dict(document, source, path.stem if folder is None else folder.name)
-    return Hopper(params, name, digest, path, folder)
+    return NamedHopper(params, name, digest, path, folder)
 
 
 def check_folder_files(folder: Path) -> None:
@@ -166,12 +167,12 @@ def check_folder_files(folder: Path) -> None:
                          f"checked (rerun examples/train_hopper.py to finish the folder, or remove the file)")
 
 
-def hopper_document(hopper: Hopper) -> dict:
+def hopper_document(hopper: NamedHopper) -> dict:
     """The JSON document ``save_hopper`` writes: the format, the name and every parameter."""
     return {"format": HOPPER_FORMAT, "name": hopper.name, **asdict(hopper.params)}
 
 
-def save_hopper(hopper: Hopper, path) -> Hopper:
+def save_hopper(hopper: NamedHopper, path) -> NamedHopper:
     """Write ``hopper`` as a JSON hopper file, atomically, and return it as read back from ``path``. ``path`` is a
     file name ending in .json, or an existing folder, which gets ``hopper.json`` (and its manifest entry, when it
     has a manifest; without one it is no hopper folder, and the file comes back as a lone hopper file)."""
@@ -189,7 +190,7 @@ def save_hopper(hopper: Hopper, path) -> Hopper:
     return load_hopper(path if path.is_file() or (path / MANIFEST).is_file() else file)
 
 
-def make_hopper_folder(hopper: Hopper, folder) -> Hopper:
+def make_hopper_folder(hopper: NamedHopper, folder) -> NamedHopper:
     """Make ``folder`` a hopper folder for ``hopper``: ``hopper.json`` and a manifest listing it (other entries of
     an existing manifest are kept). Trainers then write weights files into it and call
     ``drakeslip.jobs.files.record_digest`` on each. Returns the hopper as loaded from the folder."""
@@ -204,8 +205,8 @@ def make_hopper_folder(hopper: Hopper, folder) -> Hopper:
     return save_hopper(hopper, folder)
 
 
-def hopper_from_record(record, where: str) -> Hopper:
-    """The hopper a results or plan file's record (``Hopper.to_record``) describes; a bad record raises ValueError
+def hopper_from_record(record, where: str) -> NamedHopper:
+    """The hopper a results or plan file's record (``NamedHopper.to_record``) describes; a bad record raises ValueError
     naming ``where`` and the field."""
     if not isinstance(record, dict):
         raise ValueError(f"{where} must be an object, got {type(record).__name__}")
@@ -221,7 +222,7 @@ def hopper_from_record(record, where: str) -> Hopper:
     unknown = [key for key in params if key not in PARAM_FIELDS]
     if unknown:
         raise ValueError(f"{where}.params: unknown field {unknown[0]!r} (the fields are {', '.join(PARAM_FIELDS)})")
-    return Hopper(params_from_fields(params, f"{where}.params"), name, digest)
+    return NamedHopper(params_from_fields(params, f"{where}.params"), name, digest)
 
 
 def describe_params(params: SlipParams) -> str:
@@ -232,7 +233,7 @@ def describe_params(params: SlipParams) -> str:
             f"stroke {stroke:.3g}{gravity}")
 
 
-def check_same_hopper(hopper: Hopper, params: SlipParams, what: str) -> None:
+def check_same_hopper(hopper: NamedHopper, params: SlipParams, what: str) -> None:
     """ValueError in one line when ``params`` (what ``what``, e.g. "plan file out/plan.json", was made for) is
     another hopper than ``hopper``: a body field (BODY_FIELDS) differs. The friction is the ground's and may."""
     other = [key for key in BODY_FIELDS if getattr(params, key) != getattr(hopper.params, key)]
@@ -243,12 +244,12 @@ def check_same_hopper(hopper: Hopper, params: SlipParams, what: str) -> None:
                          f"{getattr(hopper.params, key)!r}")
 
 
-def hopper_for(params: SlipParams) -> Hopper:
+def hopper_for(params: SlipParams) -> NamedHopper:
     """The hopper to record for ``params``: the paper's when its body is the paper's, else one named 'custom'."""
     paper = paper_hopper()
     if all(getattr(params, key) == getattr(paper.params, key) for key in BODY_FIELDS):
         return paper
-    return Hopper(params, "custom")
+    return NamedHopper(params, "custom")
 
 
 def packaged_hoppers() -> list[str]:
@@ -257,12 +258,12 @@ def packaged_hoppers() -> list[str]:
 
 
 @functools.lru_cache(maxsize=None)
-def paper_hopper() -> Hopper:
+def paper_hopper() -> NamedHopper:
     """The paper's hopper (``SlipParams()``), from the packaged hopper file: the default everywhere."""
     return load_hopper(PACKAGED / "paper.json")
 
 
-def hopper_argument(text: str) -> Hopper:
+def hopper_argument(text: str) -> NamedHopper:
     """An argument type: a hopper file or folder, or the name of a packaged hopper (``paper``); a bad one is one
     line (argparse.ArgumentTypeError)."""
     path = Path(text)

@@ -48,7 +48,7 @@ def main(argv=None) -> int:
 
     from dataclasses import replace
 
-    from drakeslip.hopper_file import Hopper, save_hopper
+    from drakeslip.hopper_file import NamedHopper, save_hopper
     from drakeslip.multibody.fit import FIT_NAME, by_speed_change, errors, fit, fitted_template, summary
     from drakeslip.params import SlipParams
     from planners.formats.suite import load_suite
@@ -80,7 +80,7 @@ def main(argv=None) -> int:
                         "by_speed_change": by_speed_change(train + test, err),
                         "leg_length": t.leg_length, "stiffness": t.stiffness}
     print(json.dumps(report, indent=1))
-    save_hopper(Hopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)
+    save_hopper(NamedHopper(replace(fitted, friction=paper.friction), FIT_NAME), args.out)
     print(f"wrote {args.out}")
     return OK
 

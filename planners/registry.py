@@ -122,7 +122,7 @@ def files_read(label: str, options: dict | None = None) -> dict:
 
 
 def hopper_options(label: str, options: dict | None, hopper) -> dict | None:
-    """``options`` for ``label`` on ``hopper`` (a ``drakeslip.hopper_file.Hopper``): every committed weights file
+    """``options`` for ``label`` on ``hopper`` (a ``drakeslip.hopper_file.NamedHopper``): every committed weights file
     the planner reads (``files_read``, from planners/weights/) that the hopper's folder also holds, by name, is
     read from the folder instead (examples/train_hopper.py writes them; loading checks the folder's manifest).
     ``options`` itself for a hopper without a folder, the paper's included, or when the folder holds none."""

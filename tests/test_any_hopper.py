@@ -10,7 +10,7 @@ import pytest
 import planners
 from drakeslip import ApexState, SlipParams, Terrain, ditch_world, mixed_world
 from drakeslip.controller import StepLengthController
-from drakeslip.hopper_file import Hopper
+from drakeslip.hopper_file import NamedHopper
 from drakeslip.rollout import rollout
 from drakeslip.terrain_file import scaled_terrain
 from drakeslip.units import HopperUnits, units_of
@@ -21,7 +21,7 @@ from planners.learned.inputs import encode_window, reference_height
 from planners.learned.ranker import candidate_features
 from planners.registry import labels, make_planners, planner_name
 
-BIG = Hopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0), "big")   # k L0 / (m g) = 35.7
+BIG = NamedHopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0), "big")   # k L0 / (m g) = 35.7
 
 
 @pytest.fixture(scope="module")

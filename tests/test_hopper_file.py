@@ -8,7 +8,7 @@ import math
 import pytest
 
 from drakeslip import SlipParams
-from drakeslip.hopper_file import (FOLDER_FILE, PACKAGED, Hopper, hopper_argument, hopper_from_record, load_hopper,
+from drakeslip.hopper_file import (FOLDER_FILE, PACKAGED, NamedHopper, hopper_argument, hopper_from_record, load_hopper,
                                    make_hopper_folder, paper_hopper, save_hopper)
 from drakeslip.jobs.cli import USAGE, ArgumentParser
 from drakeslip.jobs.files import MANIFEST, manifest_entries, record_digest, sha256
@@ -57,7 +57,7 @@ def test_toml_with_a_stroke_reads_as_json_with_min_leg_length(tmp_path):
 
 
 def test_save_and_load_round_trip_to_the_bit(tmp_path):
-    hopper = Hopper(SlipParams(mass=3.3, leg_length=0.31, stiffness=1234.5, gravity=9.7, friction=0.65,
+    hopper = NamedHopper(SlipParams(mass=3.3, leg_length=0.31, stiffness=1234.5, gravity=9.7, friction=0.65,
                                min_leg_length=0.2), "small")
     saved = save_hopper(hopper, tmp_path / "small.json")
     assert saved.params == hopper.params and saved.name == "small"
@@ -112,12 +112,12 @@ def test_a_hopper_folder_holds_its_file_weights_and_manifest(tmp_path):
     assert hopper.weights("lstm.pt") == folder / "lstm.pt" and "lstm.pt" in manifest_entries(folder)
     with pytest.raises(ValueError, match="plain file name"):
         hopper.weights("../big.json")
-    assert Hopper(SlipParams(), "loose").weights("lstm.pt") is None
+    assert NamedHopper(SlipParams(), "loose").weights("lstm.pt") is None
 
 
 def test_a_changed_hopper_file_in_a_folder_is_refused(tmp_path):
     folder = tmp_path / "big"
-    make_hopper_folder(Hopper(SlipParams(mass=12, leg_length=0.7, stiffness=6000), "big"), folder)
+    make_hopper_folder(NamedHopper(SlipParams(mass=12, leg_length=0.7, stiffness=6000), "big"), folder)
     write(folder / FOLDER_FILE, {**BIG, "mass": 13})
     with pytest.raises(ValueError, match=f"{folder / FOLDER_FILE} does not match its SHA-256 in .*{MANIFEST}"):
         load_hopper(folder)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from drakeslip import SlipParams, TERRAIN_FAMILIES
-from drakeslip.hopper_file import Hopper, hopper_for, load_hopper, make_hopper_folder, paper_hopper, save_hopper
+from drakeslip.hopper_file import NamedHopper, hopper_for, load_hopper, make_hopper_folder, paper_hopper, save_hopper
 from drakeslip.jobs.files import MANIFEST, record_digest
 from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS
 from planners.formats.plan import PlanRecord, load_plan, save_plan
@@ -20,7 +20,7 @@ from planners.registry import files_read, hopper_options, make_planners
 from verification.plan_check import check_plan
 
 ROOT = Path(__file__).resolve().parents[1]
-BIG = Hopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0), "big")
+BIG = NamedHopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0), "big")
 PROFILE = "x,height\n" + "".join(f"{x / 10:.1f},{'' if 60 <= x < 65 else (0.1 if 90 <= x < 120 else 0.0)}\n"
                                  for x in range(-30, 300))
 
@@ -260,7 +260,8 @@ def test_hop_runs_another_hopper_on_a_terrain_file(inputs, run_script):
 def test_the_controller_lands_a_soft_small_hoppers_targets(tmp_path, run_script):
     """The controller trained on the paper's hopper, for the 3 kg, 0.3 m hopper of dimensionless stiffness 10 and
     friction 0.6 (the corner of the range farthest from the paper's): after its polish every target is hit."""
-    hopper = Hopper(SlipParams(mass=3.0, leg_length=0.3, stiffness=10.0 * 3.0 * 9.81 / 0.3, friction=0.6), "corner")
+    params = SlipParams(mass=3.0, leg_length=0.3, stiffness=10.0 * 3.0 * 9.81 / 0.3, friction=0.6)
+    hopper = NamedHopper(params, "corner")
     save_hopper(hopper, tmp_path / "corner.json")
     code, out, err = run_script("controller_accuracy", "--hopper", tmp_path / "corner.json", "--samples", "500",
                                 "--drake", "0")

@@ -8,12 +8,12 @@ import numpy as np
 import pytest
 
 from drakeslip import SlipParams
-from drakeslip.hopper_file import Hopper, paper_hopper
+from drakeslip.hopper_file import NamedHopper, paper_hopper
 from planners.formats.suite import load_suite, make_suite, save_suite
 from planners.formats.suite_draw import draw_suite, suite_from_terrains, suite_hopper, suite_scales
 
 ROOT = Path(__file__).resolve().parents[1]
-BIG = Hopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0, friction=0.9), "big")
+BIG = NamedHopper(SlipParams(mass=12.0, leg_length=0.7, stiffness=6000.0, friction=0.9), "big")
 
 
 @pytest.mark.parametrize("family, seed", [("ditch", 1000), ("step", 2000), ("mixed", 3000)])
@@ -57,7 +57,7 @@ def test_a_softer_hoppers_suite_follows_its_physics():
     """k L0 / (m g) = 10 and friction 0.6: starts whose vertical drop compresses the spring by the fraction of the
     stroke the paper's do, slower starts, lower steps and narrower ditches and a shorter course, by its stride; its
     steps' segments and its islands stay where the paper's are in its lengths."""
-    soft = Hopper(SlipParams(mass=5.0, leg_length=0.4, stiffness=10 * 5.0 * 9.81 / 0.4, friction=0.6), "soft")
+    soft = NamedHopper(SlipParams(mass=5.0, leg_length=0.4, stiffness=10 * 5.0 * 9.81 / 0.4, friction=0.6), "soft")
     scales = suite_scales(soft.params)
     kd, stroke, paper_kd = 10.0, 0.4, 3200 * 0.5 / (7 * 9.81)
     for z, factor in zip((0.8, 1.0), scales.start_heights):
@@ -82,7 +82,7 @@ def test_a_softer_hoppers_suite_follows_its_physics():
 
 
 def test_a_suite_keeps_its_hopper_and_ditch_heights_through_a_file(tmp_path):
-    tall = Hopper(SlipParams(mass=30.0, leg_length=2.0, stiffness=20000.0), "tall")   # levels down to -1.2 m
+    tall = NamedHopper(SlipParams(mass=30.0, leg_length=2.0, stiffness=20000.0), "tall")   # levels down to -1.2 m
     suite = draw_suite("mixed", 3000, tall, n_terrains=2, speeds=(2.0,), heights=(1.0,))
     assert any(c.terrain.ditch_height < -1.0 for c in suite.cases)
     save_suite(suite, tmp_path / "s.json")

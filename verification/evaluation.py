@@ -7,7 +7,7 @@ fingerprint of everything its result depends on: the code version (``verificatio
 the commit and a digest of uncommitted changes), the case, the hopper, the planner and its options after presets,
 the closed-loop settings, and the digests of the controller and every weights file the planner reads. Every case is
 planned for and executed with the suite's hopper (``Suite.hopper``, the paper's when the suite records none) with
-the suite's friction, and the results record that hopper (``Hopper.to_record``). Cached results
+the suite's friction, and the results record that hopper (``NamedHopper.to_record``). Cached results
 of other code are never reused: the run says how many cached results it reused and how many of other code it
 ignored, and computes the rest. The results record the same (each planner's "options", "config" and "weights":
 SHA-256 by file) with the code version the keys hold, the libraries, machine and date ("provenance").
@@ -21,7 +21,7 @@ from pathlib import Path
 from dataclasses import asdict
 
 from drakeslip.controller import DEFAULT_WEIGHTS, StepLengthController
-from drakeslip.hopper_file import Hopper, params_from_fields
+from drakeslip.hopper_file import NamedHopper, params_from_fields
 from drakeslip.jobs.executors import prepare
 from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
@@ -129,7 +129,7 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     setups = {label: fingerprint(suite, label, options, configs[label], controller_path, origin["code_version"])
               for label, options in specs.items()}
     owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
-    hopper: Hopper = suite_hopper(suite)
+    hopper: NamedHopper = suite_hopper(suite)
     tasks = [(key, (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
                     suite.goal_x, suite.friction, configs[label], asdict(hopper.params)))
              for key, (label, c) in owner.items()]

@@ -17,7 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from drakeslip import SlipParams
-from drakeslip.hopper_file import Hopper
+from drakeslip.hopper_file import NamedHopper
 from drakeslip.noise import PROFILES
 
 from planners.closed_loop import ClosedLoopConfig
@@ -33,14 +33,14 @@ RUNS = {"step": ("none", 95.0), "step@robust": ("realistic", 90.0), "lstm-guided
 GUIDED_GAP = 5.0   # points lstm-guided may fall behind step
 
 
-def hopper(mass: float, leg_length: float, stiffness: float, friction: float, name: str) -> Hopper:
+def hopper(mass: float, leg_length: float, stiffness: float, friction: float, name: str) -> NamedHopper:
     """The hopper of ``mass`` [kg], ``leg_length`` [m], dimensionless ``stiffness`` k L0 / (m g) and ``friction``
     on the Earth; its stroke is SlipParams's default."""
-    return Hopper(SlipParams(mass=mass, leg_length=leg_length, stiffness=stiffness * mass * GRAVITY / leg_length,
+    return NamedHopper(SlipParams(mass=mass, leg_length=leg_length, stiffness=stiffness * mass * GRAVITY / leg_length,
                              friction=friction), name)
 
 
-def random_hoppers(seed: int, n: int, corners: bool = True) -> list[Hopper]:
+def random_hoppers(seed: int, n: int, corners: bool = True) -> list[NamedHopper]:
     """``n`` hoppers drawn uniformly from RANGE with ``seed``, after the CORNERS when ``corners``; named
     ``corner-K`` and ``random-SEED-K``."""
     rng = np.random.default_rng(seed)
@@ -51,13 +51,13 @@ def random_hoppers(seed: int, n: int, corners: bool = True) -> list[Hopper]:
     return out
 
 
-def describe(h: Hopper) -> str:
+def describe(h: NamedHopper) -> str:
     """'3 kg, 0.3 m, kd 10, mu 0.6'."""
     p = h.params
     return f"{p.mass:.3g} kg, {p.leg_length:.3g} m, kd {h.units.stiffness:.3g}, mu {p.friction:.2g}"
 
 
-def evaluate_hopper(h: Hopper, family: str, seed: int, labels, every: int = 1, backend: str = "fast",
+def evaluate_hopper(h: NamedHopper, family: str, seed: int, labels, every: int = 1, backend: str = "fast",
                     executor=None, cache_path=None, progress: bool = False) -> dict:
     """``labels`` (of RUNS) evaluated on the ``family`` suite drawn for ``h`` from terrain ``seed``, every
     ``every``-th case, each label with its RUNS noise and its preset's closed loop, executed on ``backend``; the

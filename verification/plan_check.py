@@ -28,7 +28,7 @@ import numpy as np
 from drakeslip import FailureMode, StepLengthController
 from drakeslip import dynamics as dyn
 from drakeslip.slip_hopper import HybridState, Mode
-from drakeslip.hopper_file import Hopper, check_same_hopper
+from drakeslip.hopper_file import NamedHopper, check_same_hopper
 from drakeslip.jobs.runner import finite
 from drakeslip.rollout import rollout
 from drakeslip.simulation import IntegratorConfig, SimulationResult
@@ -198,7 +198,7 @@ class Counterexample:
 def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERANCE,
                controller: StepLengthController | None = None,
                integrator: IntegratorConfig | None = None,
-               hopper: Hopper | None = None) -> Certificate | Counterexample:
+               hopper: NamedHopper | None = None) -> Certificate | Counterexample:
     """Simulate ``record`` on Drake (see the module doc for the modes and what a certificate means) and certify it,
     or return the first place the run left it. With ``hopper``, a plan made for another hopper (its params' body
     differs) is refused: ValueError in one line, before any simulation. A run that stops before it says what the

@@ -102,7 +102,7 @@ class RobotParams:
 
 
 def check_robot_hopper(hopper, what: str) -> None:
-    """ValueError in one line unless ``hopper`` (a ``drakeslip.hopper_file.Hopper``; the friction is the ground's
+    """ValueError in one line unless ``hopper`` (a ``drakeslip.hopper_file.NamedHopper``; the friction is the ground's
     and may differ) is the paper's: the robot's geometry, masses and motors (``RobotParams``' defaults) and the
     template fitted to it (``drakeslip/multibody/template.json``) are the paper's hopper's, so a run of another
     hopper on the robot would be a run of a different robot under its name. ``what`` names where the hopper comes

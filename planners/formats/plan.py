@@ -3,7 +3,7 @@ stress-tested later without the planner, the suite or the random terrain generat
 
 A file holds everything the plan's execution depends on: the initial apex, the whole terrain (cell heights,
 not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper (its
-parameters, with the ground's friction, and ``"hopper"``, the record ``Hopper.to_record`` of the hopper the plan
+parameters, with the ground's friction, and ``"hopper"``, the record ``NamedHopper.to_record`` of the hopper the plan
 was made for: its name, parameters and hopper file's digest), the goal, and the plan itself: footholds, leg angles and predicted apexes, and ``target_x``, the x its
 last foothold reaches by the plan's own account: the planner's target when the footholds pass it, else the last
 foothold (a plan that stops where the robot's view ends, or plans one step ahead). A planner that does not
@@ -26,7 +26,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
-from drakeslip.hopper_file import Hopper, check_same_hopper, hopper_for, hopper_from_record
+from drakeslip.hopper_file import NamedHopper, check_same_hopper, hopper_for, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, POSITION, TERRAIN_START
 from drakeslip.params import check_number
@@ -55,7 +55,7 @@ class PlanRecord:
     footholds: np.ndarray
     leg_angles: np.ndarray
     apexes: np.ndarray
-    hopper: Hopper | None = None
+    hopper: NamedHopper | None = None
 
     def __post_init__(self):
         if self.hopper is not None:
@@ -98,7 +98,7 @@ class PlanRecord:
 
     @classmethod
     def from_plan(cls, plan: Plan, apex, terrain, goal_x: float, params: SlipParams,
-                  hopper: Hopper | None = None) -> "PlanRecord":
+                  hopper: NamedHopper | None = None) -> "PlanRecord":
         """``terrain`` is a Terrain, its ``to_dict()`` form, or a generator spec ``{"family", "seed"}``. Pass the
         whole terrain, not the perception window the planner saw, so the check covers the real ground. ``hopper``
         (default: ``hopper_for(params)``, the paper's or one named 'custom') is recorded with the plan."""
@@ -173,7 +173,7 @@ class PlanRecord:
 
 
 def save_plan(path, plan: Plan, apex, terrain, goal_x: float, params: SlipParams,
-              hopper: Hopper | None = None) -> PlanRecord:
+              hopper: NamedHopper | None = None) -> PlanRecord:
     """Write ``plan`` (a planner's result for this apex, terrain, goal and parameters, made for ``hopper``: see
     ``PlanRecord.from_plan``) to ``path``."""
     record = PlanRecord.from_plan(plan, apex, terrain, goal_x, params, hopper)

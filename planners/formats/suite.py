@@ -1,6 +1,6 @@
 """Test suites: terrains with initial apex states, stored as JSON (``"format": "drakeslip-suite/1"``).
 
-Two fields are optional: ``"hopper"`` (the record, ``Hopper.to_record``, of the hopper a suite was drawn for; a
+Two fields are optional: ``"hopper"`` (the record, ``NamedHopper.to_record``, of the hopper a suite was drawn for; a
 suite without one is for the paper's hopper) and a terrain's ``"ditch_height"`` (written where it is not
 DITCH_HEIGHT, as for a terrain file whose solid ground reaches below -1 m)."""
 from __future__ import annotations
@@ -9,7 +9,7 @@ import json
 from dataclasses import dataclass
 
 from drakeslip import ApexState, SlipParams, Terrain
-from drakeslip.hopper_file import Hopper, hopper_from_record
+from drakeslip.hopper_file import NamedHopper, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
 from drakeslip.params import check_name, check_number
@@ -47,7 +47,7 @@ class Suite:
     goal_x: float
     friction: float
     cases: tuple
-    hopper: Hopper | None = None   # the hopper the suite was drawn for; None: the paper's
+    hopper: NamedHopper | None = None   # the hopper the suite was drawn for; None: the paper's
 
     def to_dict(self) -> dict:
         head = {"format": SUITE_FORMAT, "name": self.name, "goal_x": self.goal_x, "friction": self.friction}

@@ -41,7 +41,7 @@ import functools
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.hopper_file import Hopper, check_same_hopper, paper_hopper
+from drakeslip.hopper_file import NamedHopper, check_same_hopper, paper_hopper
 from drakeslip.params import check_number
 from drakeslip.state import check_start
 from drakeslip.terrain import DITCH_WIDTH, TERRAIN_FAMILIES
@@ -158,7 +158,7 @@ def hopper_terrain(family: str, seed: int, scales: SuiteScales) -> Terrain:
                              terrain.x0 * scales.length)
 
 
-def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains: int = PAPER_TERRAINS,
+def draw_suite(family: str, seed: int, hopper: NamedHopper | None = None, n_terrains: int = PAPER_TERRAINS,
                speeds=PAPER_SPEEDS, heights=PAPER_HEIGHTS, goal_x: float = PAPER_GOAL_X,
                friction: float | None = None, name: str | None = None) -> Suite:
     """``make_suite(family, seed, ...)`` for ``hopper`` (default: the paper's): the same arguments, in the paper's
@@ -184,7 +184,7 @@ def draw_suite(family: str, seed: int, hopper: Hopper | None = None, n_terrains:
     return suite_for(hopper, name or f"{family}-{seed}", course_end(start_x, goal_x, scales), friction, cases)
 
 
-def suite_from_terrains(profiles, hopper: Hopper | None = None, speeds=None, heights=None,
+def suite_from_terrains(profiles, hopper: NamedHopper | None = None, speeds=None, heights=None,
                         start_x: float | None = None, goal_x: float | None = None, friction: float | None = None,
                         name: str | None = None, cell: float | None = None) -> Suite:
     """A suite of every terrain file in ``profiles`` (a folder: its .csv and .txt files, by name; or a list of
@@ -235,7 +235,7 @@ def profile_paths(profiles) -> list[Path]:
     return paths
 
 
-def suite_for(hopper: Hopper, name: str, goal_x: float, friction: float | None, cases) -> Suite:
+def suite_for(hopper: NamedHopper, name: str, goal_x: float, friction: float | None, cases) -> Suite:
     """A Suite of ``cases`` for ``hopper``, which it records unless it is the paper's; ValueError when two cases
     share an id (start speeds or heights that agree to the 6 digits an id shows) or a start lies outside the bounds
     in the hopper's units (``drakeslip.state.check_start``)."""
@@ -249,12 +249,12 @@ def suite_for(hopper: Hopper, name: str, goal_x: float, friction: float | None, 
     return Suite(name, goal_x, friction, tuple(cases), None if hopper.params == PAPER else hopper)
 
 
-def suite_hopper(suite: Suite) -> Hopper:
+def suite_hopper(suite: Suite) -> NamedHopper:
     """The hopper a suite is for: its recorded one, or the paper's."""
     return suite.hopper or paper_hopper()
 
 
-def hopper_for_suite(suite: Suite, hopper: Hopper | None = None) -> Hopper:
+def hopper_for_suite(suite: Suite, hopper: NamedHopper | None = None) -> NamedHopper:
     """The hopper to run ``suite``'s cases with: ``hopper`` (e.g. a hopper folder, whose weights planners then
     read) when it is the one the suite was drawn for (the same body: ``check_same_hopper``), the suite's own when
     ``hopper`` is None; another hopper is refused: ValueError in one line."""
@@ -268,7 +268,7 @@ def hopper_for_suite(suite: Suite, hopper: Hopper | None = None) -> Hopper:
     return hopper
 
 
-def one_case(terrain, seed: int = 0, hopper: Hopper | None = None, speed: float | None = None,
+def one_case(terrain, seed: int = 0, hopper: NamedHopper | None = None, speed: float | None = None,
              height: float | None = None, goal_x: float | None = None, start_x: float | None = None) -> Suite:
     """A suite of one case for ``hopper`` (default: the paper's), as examples/plan_and_hop.py runs it: on the draw
     from ``seed`` of the family ``terrain`` names, made the hopper's as ``draw_suite`` makes it (``hopper_terrain``),

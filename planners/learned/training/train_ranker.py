@@ -20,7 +20,7 @@ import numpy as np
 import torch
 
 from drakeslip import SlipParams
-from drakeslip.hopper_file import Hopper
+from drakeslip.hopper_file import NamedHopper
 from drakeslip.jobs.files import atomic_write
 from drakeslip.jobs.runner import FileStore
 
@@ -75,7 +75,7 @@ def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: in
         suite = make_suite(family, seed, n_terrains)
         params = SlipParams(friction=suite.friction)
     else:
-        suite = draw_suite(family, seed, Hopper(SlipParams(**hopper), "training"), n_terrains)
+        suite = draw_suite(family, seed, NamedHopper(SlipParams(**hopper), "training"), n_terrains)
         params = SlipParams(**hopper).with_friction(suite.friction)
     planner = CollectingPlanner(record_k, explore, seed, model=model, ranker=ranker, top_k=top_k)
     for case in suite.cases:
