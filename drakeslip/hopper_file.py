@@ -49,7 +49,7 @@ class NamedHopper:
     """A hopper as the toolkit names it, what a hopper file holds: its ``params``, its ``name``, and where it was
     read from: ``sha256`` of the hopper file's bytes, ``source`` (the file) and ``folder`` (the hopper folder, None
     for a lone file). A hopper built in code or read back from a record has no source. (The Drake system that
-    simulates one is ``drakeslip.slip_hopper.SlipHopper``; the robot's model, ``drakeslip/multibody/hopper.sdf``.)"""
+    simulates one is ``drakeslip.slip_hopper.SlipHopper``; the robot's model, ``drakeslip/multibody/robot.sdf``.)"""
 
     params: SlipParams
     name: str

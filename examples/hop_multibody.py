@@ -3,7 +3,7 @@
     python3 examples/hop_multibody.py --planner step@robust --goal 4 --html out/hop_multibody.html
 
 Builds, by hand, what ``planners.drake_system.build_closed_loop`` builds in one call: a MultibodyPlant with the
-hopper (``drakeslip/multibody/hopper.sdf``) and a terrain's boxes, the ``HopperController``, and the
+hopper (``drakeslip/multibody/robot.sdf``) and a terrain's boxes, the ``HopperController``, and the
 ``FootstepPlannerSystem`` (any registered planner label), connected as
 
     plant.state -> planner.state, controller.state;  planner.command -> controller.command;

@@ -295,7 +295,7 @@ def robot_page(ditches_run, tmp_path_factory):
 
 
 def _body_rgb():
-    """The robot's body's colour in the replay: its own (hopper.sdf's), no other part's or marker's."""
+    """The robot's body's colour in the replay: its own (robot.sdf's), no other part's or marker's."""
     from drakeslip.multibody.replay import RobotModel
 
     return next(tuple(colour.rgba[:3]) for _, name, _, _, colour in RobotModel().parts if name == "body_visual")

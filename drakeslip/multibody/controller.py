@@ -129,8 +129,8 @@ def motor_torque(torque: float, speed: float, params: RobotParams) -> float:
     return max(-limit, min(limit, torque))
 
 
-LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (hopper.sdf)
-LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (hopper.sdf)
+LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (robot.sdf)
+LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (robot.sdf)
 STANCE_TIME = 0.15        # [s] about half the body-on-spring period, pi sqrt(m / k) for the paper's hopper
 # Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
 # the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.8 of the body's

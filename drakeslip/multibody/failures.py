@@ -25,7 +25,7 @@ from drakeslip.units import units_of
 
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
 SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
-BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (hopper.sdf)
+BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (robot.sdf)
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
 
 

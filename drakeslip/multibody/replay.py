@@ -1,4 +1,4 @@
-"""Replays and figures of multibody runs: the robot's own geometry and colours (``hopper.sdf``: body box, upper
+"""Replays and figures of multibody runs: the robot's own geometry and colours (``robot.sdf``: body box, upper
 leg, lower leg and foot) posed from a logged trajectory (``HopLog`` with ``trajectory=True``).
 
 ``write_robot_replay`` writes a self-contained Meshcat HTML (no server: it opens offline) of the robot over the

@@ -1,4 +1,4 @@
-"""The multibody hopper: its parameters and its MultibodyPlant, loaded from the packaged ``hopper.sdf``.
+"""The multibody hopper: its parameters and its MultibodyPlant, loaded from the packaged ``robot.sdf``.
 
 The SLIP template is a point mass on a massless spring leg. The robot it stands for has a body with a pitch
 inertia, a leg swung by a torque- and speed-limited hip motor, a telescoping lower leg on the template's spring
@@ -21,7 +21,7 @@ import numpy as np
 
 from drakeslip.params import SlipParams, check_number
 
-SDF_FILE = "hopper.sdf"
+SDF_FILE = "robot.sdf"
 
 FOOT_TRAVEL = 0.05   # [m] how far the foot ball rolls in stance and is dragged at liftoff, at most, on the suites' hops
 
