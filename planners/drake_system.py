@@ -103,9 +103,9 @@ class FootstepPlannerSystem(LeafSystem):
                  replan_every: int = 1, face_keep_out: float = 0.0, pump: EnergyPump | None = None):
         super().__init__()
         if isinstance(planner, str):
-            import planners
+            from planners.registry import make
 
-            planner = planners.make(planner)
+            planner = make(planner)
         self.planner, self.terrain, self.goal_x, self.params = planner, terrain, float(goal_x), params
         self.noise, self.map_filter, self.replan_every = noise or NoiseProfile(), map_filter, int(replan_every)
         self.face_keep_out = check_number(face_keep_out, "FootstepPlannerSystem face_keep_out")
