@@ -8,8 +8,9 @@ starting with ``#`` are skipped, except that a comment may carry ``cell: C`` and
   ``cell`` [m]: the ``cell`` argument, else a ``# cell: C`` comment, else the smallest spacing of the rows (the
   shortest decimal, of at most 9 significant digits, within the float rounding of its two x values: rows at
   x = 9990.000 and 9990.001 are 1 mm apart, not 0.000999999998 m), which every row covers at least one cell of.
-  The grid starts at the first row's x. A cell takes the highest height over it, and is a gap when any part of it is one (a hole anywhere in a
-  cell makes it no foothold), so rows on the grid come out exactly and rows off it are never lost.
+  The grid starts at the first row's x. A cell takes the highest height over it, and is a gap when any part of it
+  is one (a hole anywhere in a cell makes it no foothold), so rows on the grid come out exactly and rows off it are
+  never lost.
 * **Heights per cell**: a comment ``# cell: 0.1, x0: -3`` (both keys, in any order) and then the heights of
   consecutive cells, any number per row; cell i covers ``[x0 + i cell, x0 + (i+1) cell)``. A ``cell`` argument
   other than the file's resamples it as above. ``save_terrain`` writes this form, one height per row.
