@@ -292,7 +292,7 @@ def test_ctrl_c_while_a_script_loads_its_libraries_is_one_line(tmp_path, script)
 
 def test_every_script_makes_ctrl_c_one_line_before_it_loads_a_library():
     """Each script imports drakeslip.jobs.cli (which installs the one-line report) before anything but the
-    standard library, and that import loads nothing heavy, not even numpy."""
+    standard library, and that import, and drakeslip.cli_physics's after it, load nothing heavy, not even numpy."""
     import ast
 
     late = []
@@ -308,7 +308,8 @@ def test_every_script_makes_ctrl_c_one_line_before_it_loads_a_library():
         else:
             late.append(f"{path.name}: no top-level import of drakeslip.jobs.cli")
     assert not late, late
-    probe = "import sys; import drakeslip.jobs.cli; print(sorted(m for m in ('numpy', 'torch') if m in sys.modules))"
+    probe = ("import sys; import drakeslip.jobs.cli, drakeslip.cli_physics; "
+             "print(sorted(m for m in ('numpy', 'torch') if m in sys.modules))")
     run = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, cwd=ROOT, timeout=60)
     assert run.stdout.strip() == "[]", run.stderr
 
