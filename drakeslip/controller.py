@@ -117,9 +117,9 @@ class StepLengthController:
             raise ValueError("leg_angles: footholds and apex must be finite")
         from drakeslip.fast_controller import aim_rows  # compiled on first use: --help and imports stay light
 
-        net = self.arrays().astuple()
+        net = self.arrays()
         if refine is not None and bool(refine) != self.refine:
-            net = net[:12] + (bool(refine),) + net[13:]
+            net = net._replace(refine=bool(refine))
         apexes = np.array(np.broadcast_to(apex_arr, (footholds.size, 3)))   # writable: one compiled aim_rows
         grounds = np.asarray(terrain.height_at(footholds), dtype=np.float64).reshape(-1)
         return aim_rows(apexes, footholds, grounds, net)
@@ -134,11 +134,11 @@ class StepLengthController:
     def arrays(self):
         """The network as ``drakeslip.fast_controller.ControllerArrays`` for compiled code (built once per view)."""
         if self._arrays is None:
-            from drakeslip.fast_controller import ControllerArrays
+            from drakeslip.fast_controller import controller_arrays
 
             (w_in, b_in), hidden = self._layers[0], self._layers[1:]
             size = self.config.hidden
-            self._arrays = ControllerArrays(
+            self._arrays = controller_arrays(
                 w_in, b_in, np.array([w for w, _ in hidden]).reshape(len(hidden), size, size),
                 np.array([b for _, b in hidden]).reshape(len(hidden), size), self._head[0][:, 0].copy(),
                 float(self._head[1][0]), self.feature_mean, self.feature_std,

@@ -10,7 +10,7 @@ so no call goes back into Python and a batch of one row costs little more than i
 from __future__ import annotations
 
 import ctypes
-from dataclasses import dataclass
+from collections import namedtuple
 
 import numpy as np
 from llvmlite import ir
@@ -71,31 +71,20 @@ def _call_loop(typingctx, loop, pointers, dims, steps, data):
     return types.void(loop, pointers, dims, steps, data), codegen
 
 
-@dataclass(frozen=True)
-class ControllerArrays:
+class ControllerArrays(namedtuple("ControllerArrays", [
+        "w_in", "b_in", "w_hidden", "b_hidden", "w_head", "b_head", "mean", "std", "scale", "max_angle", "leg_length",
+        "gravity", "refine", "tanh_loop", "tanh_data"])):
     """A controller's network as arrays for compiled code: input layer ``w_in`` (3, H) and ``b_in`` (H,), hidden
     layers ``w_hidden`` (L-1, H, H) and ``b_hidden`` (L-1, H), head ``w_head`` (H,) and ``b_head``; the feature
     statistics ``mean``, ``std`` and the hopper's ``scale`` (ones for the trained hopper), ``max_angle``, and the
-    aimed hopper's ``leg_length``, ``gravity``; ``refine``: polish with Newton steps."""
+    aimed hopper's ``leg_length``, ``gravity``; ``refine``: polish with Newton steps; numpy's tanh loop and its data
+    pointer (``TANH_LOOP``), which ``controller_arrays`` fills in."""
+    __slots__ = ()
 
-    w_in: np.ndarray
-    b_in: np.ndarray
-    w_hidden: np.ndarray
-    b_hidden: np.ndarray
-    w_head: np.ndarray
-    b_head: float
-    mean: np.ndarray
-    std: np.ndarray
-    scale: np.ndarray
-    max_angle: float
-    leg_length: float
-    gravity: float
-    refine: bool
 
-    def astuple(self) -> tuple:
-        """The fields in order, then numpy's tanh loop and its data pointer (``TANH_LOOP``) for ``aim_rows``."""
-        return (self.w_in, self.b_in, self.w_hidden, self.b_hidden, self.w_head, self.b_head, self.mean, self.std,
-                self.scale, self.max_angle, self.leg_length, self.gravity, self.refine, *TANH_LOOP)
+def controller_arrays(*fields) -> ControllerArrays:
+    """A ``ControllerArrays`` of the network's fields (w_in .. refine) and numpy's tanh loop."""
+    return ControllerArrays(*fields, *TANH_LOOP)
 
 
 @compiled()
@@ -122,10 +111,9 @@ def _plus_row(m, row):
 @compiled()
 def aim_rows(apexes, footholds, grounds, net):
     """The leg angle for each row: apex (x, z, xdot), desired foothold and the ground's height there (``net``:
-    ``ControllerArrays.astuple()``); the network's features (speed, drop, offset) are scaled to the trained hopper's
+    ``ControllerArrays``); the network's features (speed, drop, offset) are scaled to the trained hopper's
     units and normalized, the angle clipped to +-max_angle and, with ``refine``, polished."""
-    w_in, b_in, w_hidden, b_hidden, w_head, b_head, mean, std, scale, max_angle, leg, gravity, refine = net[:13]
-    loop, data = net[13], net[14]
+    mean, std, scale, max_angle, loop, data = net.mean, net.std, net.scale, net.max_angle, net.tanh_loop, net.tanh_data
     n = footholds.shape[0]
     feats, x = np.empty((n, 3)), np.empty((n, 3))
     for i in range(n):
@@ -134,13 +122,14 @@ def aim_rows(apexes, footholds, grounds, net):
         feats[i, 2] = footholds[i] - apexes[i, 0]
         for j in range(3):   # element by element, as numpy's broadcast computes each: (feats / scale - mean) / std
             x[i, j] = (feats[i, j] / scale[j] - mean[j]) / std[j]
-    x = _tanh_rows(_plus_row(np.dot(x, w_in), b_in), loop, data)
-    for layer in range(w_hidden.shape[0]):
-        x = _tanh_rows(_plus_row(np.dot(x, w_hidden[layer]), b_hidden[layer]), loop, data)
+    x = _tanh_rows(_plus_row(np.dot(x, net.w_in), net.b_in), loop, data)
+    for layer in range(net.w_hidden.shape[0]):
+        x = _tanh_rows(_plus_row(np.dot(x, net.w_hidden[layer]), net.b_hidden[layer]), loop, data)
     theta = np.empty(n)
-    head = np.dot(x, w_head.reshape(-1, 1))
+    head = np.dot(x, net.w_head.reshape(-1, 1))
     for i in range(n):
-        theta[i] = min(max((head[i, 0] + b_head) * max_angle, -max_angle), max_angle)
-        if refine:
-            theta[i] = polish_one(feats[i, 0], feats[i, 1], feats[i, 2], theta[i], leg, gravity, max_angle)
+        theta[i] = min(max((head[i, 0] + net.b_head) * max_angle, -max_angle), max_angle)
+        if net.refine:
+            theta[i] = polish_one(feats[i, 0], feats[i, 1], feats[i, 2], theta[i], net.leg_length, net.gravity,
+                                  max_angle)
     return theta

@@ -30,9 +30,11 @@ N_OUT = 8
 
 
 @compiled()
-def first_contact(px, pz, vx, vz, g, t_max, heights, x0, cell):
-    """First time a point on the parabola (px + vx t, pz + vz t - g t^2 / 2) meets the terrain, up to t_max.
-    Returns (t, kind, cell index) with kind TOP or FACE, or (inf, -1, -1) if none."""
+def first_contact(px, pz, vx, vz, g, t_max, ground):
+    """First time a point on the parabola (px + vx t, pz + vz t - g t^2 / 2) meets the ``ground``
+    (``drakeslip.terrain.Ground``), up to t_max. Returns (t, kind, cell index) with kind TOP or FACE, or (inf, -1,
+    -1) if none."""
+    heights, x0, cell = ground.heights, ground.x0, ground.cell
     n = heights.shape[0]
     i = cell_index(px, x0, cell, n)
     if pz <= heights[i]:
@@ -91,13 +93,13 @@ _STANCE_EVENT_CODE = (OK, BODY_COLLISION, SLIP, BOTTOM_OUT, STALL)
 
 
 @compiled()
-def _stance_guard(k, s, fx, fz, p, heights, x0, cell):
+def _stance_guard(k, s, fx, fz, p, ground):
     """Guard k that ends stance, 'event when <= 0': liftoff (negated extension), BODY_COLLISION, SLIP,
     BOTTOM_OUT, STALL (forward velocity)."""
     if k == 0:
         return -leg_extension(s[0], s[1], fx, fz, p)
     if k == 1:
-        return body_clearance(s[0], s[1], heights, x0, cell)
+        return body_clearance(s[0], s[1], ground.heights, ground.x0, ground.cell)
     if k == 2:
         return friction_margin(s[0], s[1], fx, fz, p)
     if k == 3:
@@ -106,7 +108,7 @@ def _stance_guard(k, s, fx, fz, p, heights, x0, cell):
 
 
 @compiled()
-def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
+def _stance(s, fx, fz, p, ground, stance_steps):
     """Integrate stance from touchdown. Returns (code, state at the event, elapsed time, RK4 steps);
     code OK means liftoff."""
     h = math.pi / math.sqrt(p[2] / p[0]) / stance_steps
@@ -115,7 +117,7 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
         s1 = rk4_step(s, fx, fz, h, p)
         fired = False
         for k in range(N_STANCE_GUARDS):
-            if _stance_guard(k, s1, fx, fz, p, heights, x0, cell) <= 0.0:
+            if _stance_guard(k, s1, fx, fz, p, ground) <= 0.0:
                 fired = True
         if fired:
             d0 = stance_derivatives(s[0], s[1], s[2], s[3], fx, fz, p)
@@ -123,12 +125,12 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
             best_tau = math.inf
             best_k = -1
             for k in range(N_STANCE_GUARDS):
-                if _stance_guard(k, s1, fx, fz, p, heights, x0, cell) > 0.0:
+                if _stance_guard(k, s1, fx, fz, p, ground) > 0.0:
                     continue
                 lo, hi = 0.0, h  # guard k is positive at the start of the step, <= 0 at its end
                 for _ in range(BISECTIONS):
                     mid = 0.5 * (lo + hi)
-                    if _stance_guard(k, _hermite(s, d0, s1, d1, h, mid), fx, fz, p, heights, x0, cell) <= 0.0:
+                    if _stance_guard(k, _hermite(s, d0, s1, d1, h, mid), fx, fz, p, ground) <= 0.0:
                         hi = mid
                     else:
                         lo = mid
@@ -141,37 +143,49 @@ def _stance(s, fx, fz, p, heights, x0, cell, stance_steps):
     return STALL, s, t, MAX_STANCE_PERIODS * stance_steps
 
 
+@compiled(inline="always")
+def _descend(ax, az, axdot, leg_angle, p, ground, out):
+    """From the apex to touchdown: the leg swung to ``leg_angle``, the body and the foot fall until one meets the
+    ground. Returns the touchdown's foot (x, z) and the body's state there, (x, z, zdot, time), with ``out``'s code
+    OK, or a failure's code in ``out`` (the state there in ``out``)."""
+    g = p[I_GRAVITY]
+    out[OUT_CODE] = OK
+    if body_clearance(ax, az, ground.heights, ground.x0, ground.cell) <= 0.0:
+        out[OUT_CODE] = BODY_COLLISION
+        return 0.0, 0.0, ax, az, 0.0, 0.0
+    if axdot <= 0.0:
+        out[OUT_CODE] = STALL
+        return 0.0, 0.0, ax, az, 0.0, 0.0
+    # Apex: swing the leg to the commanded angle; the foot must end above the terrain.
+    if foot_clearance(ax, az, leg_angle, p, ground.heights, ground.x0, ground.cell) <= 0.0:
+        out[OUT_CODE] = TRIP
+        return 0.0, 0.0, ax, az, 0.0, 0.0
+    # Descent with the leg extended: whichever of foot and body meets the terrain first.
+    fx0, fz0 = foot_position(ax, az, leg_angle, p)
+    t_foot, kind, i_foot = first_contact(fx0, fz0, axdot, 0.0, g, math.inf, ground)
+    t_body, _, _ = first_contact(ax, az, axdot, 0.0, g, t_foot, ground)
+    t = min(t_foot, t_body)
+    x, z, zdot = ax + axdot * t, az - 0.5 * g * t * t, -g * t
+    out[OUT_X], out[OUT_Z], out[OUT_ZDOT], out[OUT_TIME] = x, z, zdot, t
+    foot_x, foot_z = fx0 + axdot * t, fz0 - 0.5 * g * t * t
+    if t_body < t_foot:
+        out[OUT_CODE] = BODY_COLLISION
+    elif kind == FACE or classify_foot_contact(foot_z, ground.heights[i_foot], ground.ditch_height) != OK:
+        out[OUT_CODE] = FOOT_COLLISION
+    return foot_x, foot_z, x, z, zdot, t
+
+
 @compiled()
-def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stance_steps, out):
-    """One apex-to-apex step; writes (code, touchdown_x, x, z, xdot, zdot, time, work) into ``out``.
-    On success (x, z, xdot) is the next apex; on failure (x, z, xdot, zdot) is the state at the failure."""
+def step_one(ax, az, axdot, leg_angle, p, ground, stance_steps, out):
+    """One apex-to-apex step over ``ground`` (``drakeslip.terrain.Ground``); writes (code, touchdown_x, x, z, xdot,
+    zdot, time, work) into ``out``. On success (x, z, xdot) is the next apex; on failure (x, z, xdot, zdot) is the
+    state at the failure."""
     g = p[I_GRAVITY]
     out[OUT_TD_X] = math.nan
     out[OUT_WORK] = 0.0
     out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_ZDOT], out[OUT_TIME] = ax, az, axdot, 0.0, 0.0
-    if body_clearance(ax, az, heights, x0, cell) <= 0.0:
-        out[OUT_CODE] = BODY_COLLISION
-        return
-    if axdot <= 0.0:
-        out[OUT_CODE] = STALL
-        return
-    # Apex: swing the leg to the commanded angle; the foot must end above the terrain.
-    if foot_clearance(ax, az, leg_angle, p, heights, x0, cell) <= 0.0:
-        out[OUT_CODE] = TRIP
-        return
-    # Descent with the leg extended: whichever of foot and body meets the terrain first.
-    fx0, fz0 = foot_position(ax, az, leg_angle, p)
-    t_foot, kind, i_foot = first_contact(fx0, fz0, axdot, 0.0, g, math.inf, heights, x0, cell)
-    t_body, _, _ = first_contact(ax, az, axdot, 0.0, g, t_foot, heights, x0, cell)
-    t = min(t_foot, t_body)
-    x, z, zdot = ax + axdot * t, az - 0.5 * g * t * t, -g * t
-    out[OUT_X], out[OUT_Z], out[OUT_ZDOT], out[OUT_TIME] = x, z, zdot, t
-    if t_body < t_foot:
-        out[OUT_CODE] = BODY_COLLISION
-        return
-    foot_x, foot_z = fx0 + axdot * t, fz0 - 0.5 * g * t * t
-    if kind == FACE or classify_foot_contact(foot_z, heights[i_foot], ditch_height) != OK:
-        out[OUT_CODE] = FOOT_COLLISION
+    foot_x, foot_z, x, z, zdot, t = _descend(ax, az, axdot, leg_angle, p, ground, out)
+    if out[OUT_CODE] != OK:
         return
     out[OUT_TD_X] = foot_x
     # Touchdown: the foot is pinned; the leg must be able to load and start inside the friction cone.
@@ -182,7 +196,7 @@ def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stanc
         out[OUT_CODE] = STALL
         return
     s = (x, z, axdot, zdot)
-    code, s, t_stance, work = _stance(s, foot_x, foot_z, p, heights, x0, cell, stance_steps)
+    code, s, t_stance, work = _stance(s, foot_x, foot_z, p, ground, stance_steps)
     t += t_stance
     out[OUT_WORK] = work
     out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_ZDOT], out[OUT_TIME] = s[0], s[1], s[2], s[3], t
@@ -194,7 +208,7 @@ def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stanc
         out[OUT_CODE] = STALL
         return
     t_up = s[3] / g
-    t_hit, _, _ = first_contact(s[0], s[1], s[2], s[3], g, t_up, heights, x0, cell)
+    t_hit, _, _ = first_contact(s[0], s[1], s[2], s[3], g, t_up, ground)
     if t_hit < t_up:
         t_up = t_hit
         out[OUT_CODE] = BODY_COLLISION
@@ -207,20 +221,20 @@ def step_one(ax, az, axdot, leg_angle, p, heights, x0, cell, ditch_height, stanc
 
 
 @compiled(parallel=False)
-def step_many(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_height, stance_steps):
+def step_many(ax, az, axdot, leg_angles, p, ground, stance_steps):
     """Vectorized step over arrays of apex states and leg angles (all the same length)."""
     n = leg_angles.shape[0]
     out = np.empty((n, N_OUT))
     for i in range(n):
-        step_one(ax[i], az[i], axdot[i], leg_angles[i], p, heights, x0, cell, ditch_height, stance_steps, out[i])
+        step_one(ax[i], az[i], axdot[i], leg_angles[i], p, ground, stance_steps, out[i])
     return out
 
 
 @compiled(parallel=True)
-def step_many_parallel(ax, az, axdot, leg_angles, p, heights, x0, cell, ditch_height, stance_steps):
+def step_many_parallel(ax, az, axdot, leg_angles, p, ground, stance_steps):
     """``step_many`` spread over all cores, for large batches (dataset and controller training grids)."""
     n = leg_angles.shape[0]
     out = np.empty((n, N_OUT))
     for i in prange(n):
-        step_one(ax[i], az[i], axdot[i], leg_angles[i], p, heights, x0, cell, ditch_height, stance_steps, out[i])
+        step_one(ax[i], az[i], axdot[i], leg_angles[i], p, ground, stance_steps, out[i])
     return out

@@ -80,8 +80,7 @@ def step_batch(apex, leg_angles, terrain: Terrain, params: SlipParams | None = N
     kernel = fs.step_many_parallel if parallel else fs.step_many
     # fresh writable columns whatever the caller passed (a read-only or broadcast apex would compile the kernel again)
     return batch_result(kernel(np.array(apexes[:, 0]), np.array(apexes[:, 1]), np.array(apexes[:, 2]), angles,
-                               params.as_array(), terrain.heights,
-                               terrain.x0, terrain.cell, terrain.ditch_height, int(stance_steps)))
+                               params.as_array(), terrain.ground(), int(stance_steps)))
 
 
 def leg_angle_array(leg_angles) -> np.ndarray:

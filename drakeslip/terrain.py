@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from collections import namedtuple
 
 import numpy as np
 
@@ -18,6 +19,9 @@ WINDOW_BEHIND = 3.0   # ... and 3 m behind, in 10 cm cells (110 cells); another 
 # (a ditch). It is a property of the map and its sensor, not of the hopper, so it stays 2 cm for every hopper; a
 # level change under 2 cm is no obstacle to a hopper whose leg is 0.3 m or longer.
 LEVEL_TOLERANCE = 0.02
+# A height map as compiled code reads it: a ``Terrain``'s heights per cell from ``x0``, ``cell`` wide (a cell at or
+# below ``ditch_height`` a ditch), and the lowest solid height (``lowest``: how far a flight can fall at most)
+Ground = namedtuple("Ground", ["heights", "x0", "cell", "ditch_height", "lowest"])
 
 
 class Terrain:
@@ -49,6 +53,14 @@ class Terrain:
         self.extends_flat = bool(extends_flat)
         self.heights = h
         self.heights.setflags(write=False)
+
+    def ground(self) -> Ground:
+        """This terrain as compiled code reads it (made once)."""
+        if "_ground" not in self.__dict__:
+            solid = self.heights[self.heights > self.ditch_height]
+            lowest = float((solid if solid.size else self.heights).min())
+            self._ground = Ground(self.heights, float(self.x0), float(self.cell), float(self.ditch_height), lowest)
+        return self._ground
 
     @classmethod
     def flat(cls, height: float = 0.0, cell: float = 0.1, x0: float = -3.0, length: float = 30.0) -> "Terrain":

@@ -51,13 +51,13 @@ GREEDY_STEPS = 12  # the greedy oracle's plan length: the paper's LSTM planner's
 
 
 class Counting:
-    """Mixin for Step-space planners: counts the candidates simulated and those that work, in the numpy search
-    (whose expansions call ``simulate``; the compiled core makes the same trees without calling it)."""
+    """Mixin for Step-space planners: counts the candidates simulated and those that work, in the search run as Python
+    (whose expansions call ``simulate``; the compiled search makes the same trees without calling it)."""
 
     tried = worked = 0
 
     def _search(self, problem, setting, robust=None):
-        return self.numpy_search(problem, setting, robust)
+        return self.python_search(problem, setting, robust)
 
     def simulate(self, problem, apex, x_l, theta):
         ok, apexes = super().simulate(problem, apex, x_l, theta)

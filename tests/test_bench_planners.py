@@ -72,7 +72,7 @@ def test_bench_compiled_controller_call(benchmark, controller, n):
     footholds = np.linspace(0.3, 1.2, n)
     apexes = np.tile(np.asarray(APEX, dtype=float), (n, 1))
     benchmark(aim_rows, apexes, footholds, np.asarray(TERRAIN.height_at(footholds), dtype=float),
-              controller.arrays().astuple())
+              controller.arrays())
 
 
 @pytest.mark.parametrize("part", ["new window", "node"])
@@ -83,10 +83,10 @@ def test_bench_compiled_model(benchmark, part):
     import numpy as np
 
     from planners.checkpoints import SUBCELL_WEIGHTS
-    from planners.core.model import ModelArrays, encode, first_gates, first_step_logits
+    from planners.core.model import encode, first_gates, first_step_logits, model_arrays
     from planners.learned.lstm import load_model
 
-    arrays = ModelArrays(load_model(SUBCELL_WEIGHTS)).astuple()
+    arrays = model_arrays(load_model(SUBCELL_WEIGHTS))
     window = np.random.default_rng(0).uniform(-0.3, 0.3, 110)
     gates = first_gates(encode(window, 120, arrays), arrays)
     if part == "new window":

@@ -11,12 +11,11 @@ import torch
 from drakeslip import SlipParams, StepLengthController, Terrain
 from drakeslip.fast_controller import aim_rows
 from planners.checkpoints import SUBCELL_WEIGHTS
-from planners.core.model import ModelArrays, encode, first_gates, first_step_logits
+from planners.core.model import encode, first_gates, first_step_logits, model_arrays
 from planners.formats.suite import load_suite
 from planners.learned.inputs import encode_window
 from planners.learned.lstm import FootstepDistribution, load_model
 from planners.registry import make
-from planners.search.tree import best_first
 
 SUITE = load_suite("suites/step.json")
 PARAMS = SlipParams(friction=SUITE.friction)
@@ -33,7 +32,7 @@ def test_compiled_model_matches_torch(apex):
     net = FootstepDistribution(model)
     enc = encode_window(SUITE.cases[3].terrain, ApexState(*apex))
     terrain, apex_in, s0, _ = net.inputs(enc)
-    arrays = ModelArrays(model).astuple()
+    arrays = model_arrays(model)
     code = encode(terrain[0], enc.s0_bin(net.subcells), arrays)
     logits = first_step_logits(apex_in[0], first_gates(code, arrays), arrays, np.empty(0, np.int64))
     with torch.no_grad():   # copies: the loaded model is shared by every planner in the process
@@ -56,7 +55,7 @@ def test_the_compiled_tanh_is_within_3e_16_of_libms():
 
 def test_the_logits_of_a_few_bins_are_those_of_every_bin():
     model = load_model(SUBCELL_WEIGHTS)
-    arrays = ModelArrays(model).astuple()
+    arrays = model_arrays(model)
     rng = np.random.default_rng(3)
     for _ in range(5):
         gates = first_gates(encode(rng.uniform(-1, 1, 110), int(rng.integers(0, 440)), arrays), arrays)
@@ -84,12 +83,12 @@ def test_compiled_controller_is_the_network_in_numpy_to_the_bit():
     rng = np.random.default_rng(0)
     for params in (PARAMS, SlipParams(leg_length=0.8, mass=20.0, stiffness=6000.0)):
         controller = StepLengthController.load_default().for_params(params)
-        net = controller.arrays().astuple()
+        net = controller.arrays()
         for n in (1, 2, 5, 17, 40, 300):
             apexes = np.stack([rng.uniform(-1, 5, n), rng.uniform(0.6, 1.5, n), rng.uniform(0.3, 3.5, n)], axis=1)
             footholds = apexes[:, 0] + rng.uniform(-0.3, 1.2, n)
             grounds = rng.uniform(-0.2, 0.2, n)
-            assert np.array_equal(aim_rows(apexes, footholds, grounds, net[:12] + (False,) + net[13:]),
+            assert np.array_equal(aim_rows(apexes, footholds, grounds, net._replace(refine=False)),
                                   numpy_network(net, apexes, footholds, grounds))
         expected = controller.leg_angles(apexes, footholds, Terrain.flat())
         assert np.array_equal(aim_rows(apexes, footholds, np.zeros(n), net), expected)
@@ -105,22 +104,23 @@ def same_search(a, b):
 
 @pytest.mark.parametrize("label", ["step", "step@robust"])
 def test_compiled_grid_search_makes_the_python_searchs_tree(label):
+    """The one search loop compiled with the compiled grid expansion, and run as Python with the expansion the Drake
+    step map's search uses (its candidates flown here on the fast step map, one Python call a node)."""
     planner = make(label)
     for case in CASES:
         problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
         robust, spacing = planner.attempt_settings(problem.units)[0]
-        assert same_search(planner.numpy_search(problem, spacing, robust),
+        assert same_search(planner.python_search(problem, spacing, robust),
                            planner._search(problem, spacing, robust)), case.id
 
 
 @pytest.mark.parametrize("label", ["lstm-guided", "lstm-guided@robust"])
-def test_compiled_sampled_search_makes_the_numpy_searchs_tree(label):
+def test_compiled_sampled_search_makes_the_python_searchs_tree(label):
     planner = make(label)
-    model = planner.core_model
     for case in CASES:
         problem = planner.problem(case.apex, case.terrain, SUITE.goal_x, PARAMS, time.perf_counter())
         robust = planner.robustness_levels()[0]
-        assert same_search(planner.numpy_search(problem, planner.attempts[0], robust),
+        assert same_search(planner.python_search(problem, planner.attempts[0], robust),
                            planner._search(problem, planner.attempts[0], robust)), case.id
 
 
@@ -143,10 +143,8 @@ def test_a_node_whose_candidates_all_lie_in_ditches_has_no_children():
     planner = make("lstm-guided")
     problem = planner.problem((2.0, 1.5, 1.0), terrain, 10.0, PARAMS, time.perf_counter())
     core = planner._search(problem, planner.attempts[0])
-    model, planner.core_model = planner.core_model, None
-    numpy_search = planner._search(problem, planner.attempts[0])
-    planner.core_model = model
-    assert len(core.tree) == 1 and core.ode_calls == 0 and same_search(numpy_search, core)
+    python = planner.python_search(problem, planner.attempts[0])
+    assert len(core.tree) == 1 and core.ode_calls == 0 and same_search(python, core)
 
 
 def test_planning_speed_script_prints_the_ratios(run_script):

@@ -24,8 +24,6 @@ LAYERS = ("drakeslip", "planners", "verification", "examples")  # each may impor
 INFRASTRUCTURE = "drakeslip.jobs"
 MAX_LINES, MAX_LINE_LENGTH, MAX_FUNCTION_LINES, MAX_PARAMETERS = 400, 120, 60, 8
 LONG_REASON, MANY_PARAMETERS_REASON = re.compile(r"#\s*long:\s*\S"), re.compile(r"#\s*many parameters:\s*\S")
-# The one circle between the parts of a package that the lead's merge of issue 56 removes.
-SEARCH_AND_CORE = ("planners", frozenset({"core", "search"}))
 
 
 def module_name(path: Path) -> str:
@@ -154,15 +152,7 @@ def test_no_import_circles():
 
 
 def test_the_parts_of_each_package_import_one_way():
-    found = [c for c in part_circles() if (c[0], c[1]) != SEARCH_AND_CORE]
-    assert not found, show(found)
-
-
-@pytest.mark.xfail(strict=True, reason="planners/core imports planners/search (core/grid.py, core/robust.py, "
-                   "core/search.py) and planners/search imports planners/core inside functions (search/pruned.py, "
-                   "search/step_space.py): the lead's merge of issue 56 removes the circle and this mark")
-def test_planners_search_and_core_import_one_way():
-    found = [c for c in part_circles() if (c[0], c[1]) == SEARCH_AND_CORE]
+    found = part_circles()
     assert not found, show(found)
 
 
@@ -247,7 +237,7 @@ def test_no_long_function_without_its_reason():
 
 
 CHECKS = (test_no_module_imports_from_a_higher_layer, test_no_import_circles,
-          test_the_parts_of_each_package_import_one_way, test_planners_search_and_core_import_one_way,
+          test_the_parts_of_each_package_import_one_way,
           test_no_module_imports_a_package_that_holds_it, test_the_job_infrastructure_imports_nothing_of_the_physics,
           test_no_module_uses_another_modules_private_names, test_no_line_is_over_120_characters,
           test_no_long_function_without_its_reason)

@@ -7,7 +7,7 @@ import torch
 
 import drakeslip as ds
 from planners.learned.training.dataset import DatasetConfig, count_sequences, pending_shards, shard_path, write_manifest, write_shard
-from planners.learned.inference import NumpyFootstepModel
+from planners.learned.inference import PlanningFootstepModel
 from planners.learned.inputs import encode_window
 from planners.learned.model import FootstepModel, ModelConfig, load_checkpoint
 from planners.learned.training.train_lstm import TrainConfig, batch_loss, load_dataset, one_hot_inputs, train
@@ -53,7 +53,8 @@ def test_subcell_model_has_bins_and_reads_the_previous_step_per_bin():
 
 
 @pytest.mark.parametrize("subcells", [1, 4])
-def test_numpy_inference_matches_torch(subcells):
+def test_the_planners_inference_matches_torch(subcells):
+    """The compiled forward pass the planners run (planners/core/model.py) against the torch model it is trained as."""
     torch.manual_seed(1)
     model = FootstepModel(ModelConfig(subcells=subcells)).eval()
     n = 110 * subcells
@@ -63,7 +64,7 @@ def test_numpy_inference_matches_torch(subcells):
     mask = torch.zeros(3, n, dtype=torch.bool)
     mask[:, 40:45] = True
     expected = model.rollout(terrain, apex, s0, 5, mask, temperature=1.5).numpy()
-    got = NumpyFootstepModel(model).rollout(terrain.double().numpy(), apex.double().numpy(), s0.double().numpy(),
+    got = PlanningFootstepModel(model).rollout(terrain.double().numpy(), apex.double().numpy(), s0.double().numpy(),
                                             5, mask.numpy(), temperature=1.5)
     assert np.abs(got - expected).max() < 1e-5
     assert np.all(got[:, :, 40:45] == 0.0)

@@ -67,13 +67,13 @@ def test_the_stage_plans_for_another_hopper_in_its_units():
 
 def test_the_compiled_dead_apex_check_is_the_energy_graphs():
     """planners/core/pruned.py's ``alive`` drops exactly the apexes ``Coreach.alive`` drops (the oracle's check)."""
-    from planners.core.pruned import alive
+    from planners.core.pruned import Coreachable, alive
     from planners.search.energy_graph import CellGraph, Coreach
 
     terrain = LOW_START.terrain
     graph = CellGraph(LOW_START.apex, terrain, 10.0, PARAMS)
     coreach = Coreach(graph)
-    cells = (coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
+    cells = Coreachable(coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
     rng = np.random.default_rng(0)
     apexes = np.column_stack([rng.uniform(-1.0, 11.0, 400), rng.uniform(0.3, 1.6, 400), rng.uniform(0.05, 3.0, 400)])
     expected = coreach.alive(apexes)

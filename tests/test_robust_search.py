@@ -11,7 +11,9 @@ import planners
 from drakeslip.controller import StepLengthController
 from drakeslip.units import units_of
 from planners.formats.suite import make_suite
-from planners.search.robust import Robustness, ways_on
+from planners.core.particles import Worlds, ways_on
+from planners.core.robust import RobustCheck
+from planners.search.robust import Robustness
 from planners.search.tree import clear_of_edges
 
 
@@ -175,8 +177,11 @@ def test_a_deeper_way_on_is_every_hop_of_it_flown_on_its_own():
                     and clear_of_edges(terrain, np.array([r.touchdown_x[k]]), margin)[0])
 
     out = np.empty(8)
-    args = (params.as_array(), terrain.heights, terrain.x0, terrain.cell, terrain.ditch_height, terrain.heights,
-            terrain.x0, 0.0, min_speed, margin, out)
+    heights = terrain.heights[None, :]
+    check = RobustCheck(0, 0, 1, fan, np.zeros((1, 3)), np.zeros(1), np.zeros(1, np.int64), np.zeros(1),
+                        Worlds(params.as_array()[None, :], heights, np.array([terrain.x0]), terrain.cell,
+                               terrain.ditch_height), 0.0, 0.0, margin, min_speed)
+    args = (check, 0, terrain.ground(), out)   # particle 0, in the one world, the map as it is
     deeper_differs = 0
     for x in np.arange(0.0, 4.0, 0.25):
         apex = np.array([x, 0.9, 1.5])

@@ -2,16 +2,17 @@
 
 ``now()`` reads CLOCK_MONOTONIC, the clock behind ``time.perf_counter`` on Linux, so a compiled search compares
 it with a problem's deadline directly; a call costs tens of nanoseconds, so the core times every controller, model
-and step-map call without changing what it measures. A core adds the seconds it spent in each part to a slots
-array (STEP_MAP, CONTROLLER, MODEL), which ``planners.base.Timing.add`` reads."""
+and step-map call without changing what it measures. In Python (the search loop run as Python, ``best_first``) it is
+``time.perf_counter`` itself. A core adds the seconds it spent in each part to a slots array (STEP_MAP, CONTROLLER,
+MODEL), which ``planners.base.Timing.add`` reads."""
 from __future__ import annotations
+
+import time
 
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
-
-from drakeslip.compiled import compiled
+from numba.extending import intrinsic, overload
 
 # slots of a core's time array: seconds in each part of a planning call
 STEP_MAP, CONTROLLER, MODEL, N_SLOTS = 0, 1, 2, 3
@@ -35,7 +36,11 @@ def _monotonic_ns(typingctx):
     return types.int64(), codegen
 
 
-@compiled()
-def now():
-    """Seconds on the monotonic clock (``time.perf_counter()``'s)."""
-    return _monotonic_ns() * 1e-9
+def now() -> float:
+    """Seconds on the monotonic clock (``time.perf_counter()``'s); compiled code reads the clock itself."""
+    return time.perf_counter()
+
+
+@overload(now)
+def _now():
+    return lambda: _monotonic_ns() * 1e-9

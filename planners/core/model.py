@@ -1,15 +1,19 @@
-"""The footstep model's forward pass compiled, for the sampled search's nodes (planners/core/sampled.py).
+"""The footstep model's forward pass for planning, compiled: the planners' one copy of ``FootstepModel``'s function
+(planners/learned/model.py, the torch model it is trained as; tests/test_core.py and tests/test_lstm.py check the two
+agree), in float64.
 
-A node's first-step distribution (``conditioning="apex"``: the model restarted from the node's own apex and window)
-is the model's CNN encoding of the window and the bin under the body, an LSTM step from the state ``g0`` gives for
-the apex, and the head. The encoding and the first layer's input gates depend only on the window and that bin,
-which nodes may share, so they are computed once per (window, bin) and kept for the rest of the search; a node
-costs the apex's initial state, the recurrent products and the head, the head only for the bins of the node's
-candidates where the search needs no more. Weights are the trained model's (``ModelArrays``), the arithmetic
-float64 as in planners/learned/inference.py (tests/test_core.py checks it against torch)."""
+A step (``model_step``) encodes the window's heights and the previous step's distribution with the CNN, runs the
+LSTM's layers from their state, and gives the head's logits over the window's bins; ``initial_state`` is the state
+``g0`` gives for an apex. The sampled search's nodes (planners/core/sampled.py) ask for the first step from a node's
+own apex with the bin under the body as the previous step, which ``first_gates`` and ``first_step_logits`` compute
+faster: the encoding and the first layer's input gates depend only on the window and that bin, which nodes may
+share, so they are computed once per (window, bin); each layer's recurrent product starts from the state ``g0``
+gives, so it is taken from the apex directly (``from_apex``: the same sums in another order, equal but for
+rounding); and the head only for the bins of the node's candidates where the search needs no more."""
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from llvmlite import ir
@@ -91,38 +95,34 @@ def stored(matrix: np.ndarray) -> np.ndarray:
     return single if np.array_equal(single.astype(np.float64), matrix) else np.ascontiguousarray(matrix)
 
 
-class ModelArrays:
-    """A ``FootstepModel``'s weights for compiled code, each layer's matrix stored (inputs, outputs): ``astuple``
-    gives (g0_w, g0_b, conv1_w (out, in, taps), conv1_b, conv2_w, conv2_b, fc_w, fc_b, the first layer's w_ih
-    (in, 4H), the later layers' w_ih (layers - 1, H, 4H), from_apex (layers, apex features, 4H), b (layers, 4H),
-    head_w, head_b, subcells, from_apex_b (layers, 4H), head_rows (bins, H)).
+# A model's weights for compiled code, each layer's matrix stored (inputs, outputs): g0, the CNN's two convolutions
+# (out, in, taps) and its linear layer, the first LSTM layer's input weights, the later layers' (layers - 1, H, 4H),
+# every layer's recurrent weights (layers, H, 4H) and summed biases (layers, 4H), the head (H, bins), the sub-cells per
+# cell; and for the first step from an apex, each layer's recurrent product of g0's state (layers, apex features, 4H)
+# and of its bias (layers, 4H), and the head a bin per row (bins, H)
+ModelArrays = namedtuple("ModelArrays", ["g0_w", "g0_b", "conv1_w", "conv1_b", "conv2_w", "conv2_b", "fc_w", "fc_b",
+                                         "w_ih_first", "w_ih_rest", "w_hh", "b", "head_w", "head_b", "subcells",
+                                         "from_apex", "from_apex_b", "head_rows"])
 
-    A node's LSTM step starts from the state ``g0`` gives for its apex, h = apex @ g0_w_h + g0_b_h, so each layer's
-    recurrent product h @ w_hh is apex @ (g0_w_h @ w_hh) + g0_b_h @ w_hh: ``from_apex`` and ``from_apex_b`` are
-    those two products, computed once here (the same sums in another order, equal but for rounding), and a node
-    costs a 3-row product instead of an H-row one. ``head_rows`` is the head's matrix a bin per row, for the logits
-    of a node's candidates' bins alone."""
 
-    def __init__(self, model):
-        w = {k: v.detach().double().cpu().numpy() for k, v in model.state_dict().items()}
-        c = model.config
-        self.config = c
-        layers, hidden = range(c.layers), c.hidden
-        g0_w, g0_b = np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy()
-        w_hh = [w[f"lstm.weight_hh_l{k}"].T for k in layers]
-        from_apex = np.stack([g0_w[:, k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
-        from_apex_b = np.stack([g0_b[k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
-        self.arrays = (g0_w, g0_b, w["cnn.0.weight"].copy(),
-                       w["cnn.0.bias"].copy(), w["cnn.2.weight"].copy(), w["cnn.2.bias"].copy(),
-                       stored(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(), stored(w["lstm.weight_ih_l0"].T),
+def model_arrays(model) -> ModelArrays:
+    """A ``FootstepModel``'s weights as compiled code reads them."""
+    w = {k: v.detach().double().cpu().numpy() for k, v in model.state_dict().items()}
+    c = model.config
+    layers, hidden = range(c.layers), c.hidden
+    g0_w, g0_b = np.ascontiguousarray(w["g0.weight"].T), w["g0.bias"].copy()
+    w_hh = [w[f"lstm.weight_hh_l{k}"].T for k in layers]
+    from_apex = np.stack([g0_w[:, k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
+    from_apex_b = np.stack([g0_b[k * hidden:(k + 1) * hidden] @ w_hh[k] for k in layers])
+    return ModelArrays(g0_w, g0_b, w["cnn.0.weight"].copy(), w["cnn.0.bias"].copy(), w["cnn.2.weight"].copy(),
+                       w["cnn.2.bias"].copy(), stored(w["cnn.5.weight"].T), w["cnn.5.bias"].copy(),
+                       stored(w["lstm.weight_ih_l0"].T),
                        stored(np.stack([w[f"lstm.weight_ih_l{k}"].T for k in layers[1:]]).reshape(
                            c.layers - 1, c.hidden, 4 * c.hidden)),
-                       from_apex, np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"] for k in layers]),
-                       stored(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells), from_apex_b,
+                       stored(np.stack(w_hh)), np.stack([w[f"lstm.bias_ih_l{k}"] + w[f"lstm.bias_hh_l{k}"]
+                                                         for k in layers]),
+                       stored(w["head.weight"].T), w["head.bias"].copy(), int(c.subcells), from_apex, from_apex_b,
                        stored(w["head.weight"]))
-
-    def astuple(self) -> tuple:
-        return self.arrays
 
 
 @compiled(fastmath={"contract"})
@@ -172,12 +172,30 @@ def _first_conv_relu(window, prev_bin, w, b, subcells):
 @compiled()
 def encode(window, prev_bin, net):
     """The CNN's encoding (the LSTM's input) of the window's relative heights and a one-hot previous step at bin
-    ``prev_bin``."""
-    conv1_w, conv1_b, conv2_w, conv2_b, fc_w, fc_b, subcells = net[2], net[3], net[4], net[5], net[6], net[7], net[14]
-    first = _first_conv_relu(window, prev_bin, conv1_w, conv1_b, subcells)
-    features = _conv_relu(first, conv2_w, conv2_b).reshape(-1)
-    out = np.empty(fc_w.shape[1])
-    affine(features, fc_w, fc_b, out)
+    ``prev_bin``: ``encode_image``'s, without the image's zeros."""
+    first = _first_conv_relu(window, prev_bin, net.conv1_w, net.conv1_b, net.subcells)
+    return _fully_connected(_conv_relu(first, net.conv2_w, net.conv2_b).reshape(-1), net)
+
+
+@compiled()
+def encode_image(window, prev, net):
+    """The CNN's encoding of the window's relative heights and a previous step's distribution ``prev`` over the
+    window's bins (a channel per sub-cell)."""
+    n, subcells = window.shape[0], net.subcells
+    image = np.empty((1 + subcells, n))
+    for c in range(n):
+        image[0, c] = window[c]
+        for k in range(subcells):
+            image[1 + k, c] = prev[c * subcells + k]
+    first = _conv_relu(image, net.conv1_w, net.conv1_b)
+    return _fully_connected(_conv_relu(first, net.conv2_w, net.conv2_b).reshape(-1), net)
+
+
+@compiled(inline="always")
+def _fully_connected(features, net):
+    """The CNN's last layer, with its ReLU."""
+    out = np.empty(net.fc_w.shape[1])
+    affine(features, net.fc_w, net.fc_b, out)
     for j in range(out.shape[0]):
         out[j] = max(out[j], 0.0)
     return out
@@ -191,7 +209,7 @@ def _sigmoid(x):
 @compiled()
 def first_gates(encoding, net):
     """The first LSTM layer's input gates x @ w_ih + b for an encoding (kept per window and bin)."""
-    w_ih, b = net[8], net[11]
+    w_ih, b = net.w_ih_first, net.b
     out = np.empty(w_ih.shape[1])
     affine(encoding, w_ih, b[0], out)
     return out
@@ -202,8 +220,9 @@ def first_step_logits(apex_features, gates_in, net, bins):
     """Logits of the model's first step from an apex (its three features), given its window's first layer's input
     gates ``gates_in`` (``first_gates``): of every bin when ``bins`` is empty, else of those ``bins`` (the
     rest left at -inf)."""
-    g0_w, g0_b, w_ih, from_apex, b, head_w, head_b = net[0], net[1], net[9], net[10], net[11], net[12], net[13]
-    from_apex_b, head_rows = net[15], net[16]
+    g0_w, g0_b, w_ih, from_apex, b, head_w, head_b = (net.g0_w, net.g0_b, net.w_ih_rest, net.from_apex, net.b,
+                                                      net.head_w, net.head_b)
+    from_apex_b, head_rows = net.from_apex_b, net.head_rows
     layers, hidden = from_apex.shape[0], b.shape[1] // 4
     cell = np.empty(layers * hidden)   # the initial c of every layer (g0's second half)
     affine(apex_features, g0_w[:, layers * hidden:], g0_b[layers * hidden:], cell)
@@ -255,3 +274,38 @@ def masked_softmax(logits, temperature, mask):
     for j in range(p.shape[0]):
         p[j] /= total
     return p
+
+
+@compiled(fastmath={"contract"}, error_model="numpy")
+def initial_state(apex_features, net):
+    """The LSTM's state (h, c), each (layers, H), that ``g0`` gives for an apex's three features."""
+    layers, hidden = net.b.shape[0], net.b.shape[1] // 4
+    hc = np.empty(2 * layers * hidden)
+    affine(apex_features, net.g0_w, net.g0_b, hc)
+    return hc[:layers * hidden].copy().reshape(layers, hidden), hc[layers * hidden:].copy().reshape(layers, hidden)
+
+
+@compiled(fastmath={"contract"}, error_model="numpy")
+def model_step(window, prev, h, c, net):
+    """One step of the model: the logits over the window's bins of the step after ``prev`` (a distribution over
+    them), and the LSTM's state after it, from the state (``h``, ``c``)."""
+    layers, hidden = net.b.shape[0], net.b.shape[1] // 4
+    x = encode_image(window, prev, net)
+    h_after, c_after = np.empty((layers, hidden)), np.empty((layers, hidden))
+    gates, recurrent = np.empty(4 * hidden), np.empty(4 * hidden)
+    for layer in range(layers):
+        if layer == 0:
+            affine(x, net.w_ih_first, net.b[layer], gates)
+        else:
+            affine(x, net.w_ih_rest[layer - 1], net.b[layer], gates)
+        affine(h[layer], net.w_hh[layer], np.zeros(4 * hidden), recurrent)
+        x = np.empty(hidden)
+        for j in range(hidden):   # torch's gate order: input, forget, cell, output
+            g = gates[j] + recurrent[j], gates[hidden + j] + recurrent[hidden + j]
+            cell = _sigmoid(g[1]) * c[layer, j] + _sigmoid(g[0]) * tanh(gates[2 * hidden + j]
+                                                                           + recurrent[2 * hidden + j])
+            c_after[layer, j] = cell
+            x[j] = h_after[layer, j] = _sigmoid(gates[3 * hidden + j] + recurrent[3 * hidden + j]) * tanh(cell)
+    logits = np.empty(net.head_w.shape[1])
+    affine(x, net.head_w, net.head_b, logits)
+    return logits, h_after, c_after

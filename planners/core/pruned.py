@@ -1,22 +1,36 @@
 """The planners' pruned last stage, compiled (``planners.search.pruned`` says what it searches and why): Step-space's
-grid expansion (``expand_grid``), apexes merged on (x, xdot) cells, the energy graph's dead apexes dropped, the node
-farthest ahead less its risk popped first."""
+grid expansion, apexes merged on (x, xdot) cells, the energy graph's dead apexes dropped, the node farthest ahead
+less its risk popped first; a child past the target ends the search."""
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import types
+from numba.extending import overload
 from numba.typed import Dict
 
 from drakeslip.compiled import compiled
-from planners.core.clock import N_SLOTS
-from planners.core.grid import expand_grid
-from planners.core.tree import (CAPACITY, EXHAUSTED, GO_ON, GOALS, NO_LIMIT, budget_stop, grown, heap_pop, heap_push, new_tree,
-                                reserve)
 
-# fields of the stage's settings array (``planners.search.pruned.pruned_search`` fills it)
-CAREFUL, MERGE_X, MERGE_XDOT, RISK_COST, REACH, GRAVITY_G, TARGET_X = range(7)
+from planners.core.best_first import ADMITTED, SKIPPED, STATEFUL, admit, expand, start
+from planners.core.grid import expand_grid
+from planners.core.tree import CAPACITY, NO_GOAL, Children, grown
+
+# The stage's settings: apexes slower than ``careful`` make a hop risky, the merge cells' size in x and xdot, the
+# progress a risky hop costs, the reach and gravity of the energy graph's flights, the target
+StageSettings = namedtuple("StageSettings", ["careful", "merge_x", "merge_xdot", "risk_cost", "reach", "gravity",
+                                             "target_x"])
+# The cells from which the target can be reached, in increasing x (``planners.search.energy_graph.Coreach``): their
+# x ranges, tops, and the lowest top
+Coreachable = namedtuple("Coreachable", ["lo", "hi", "top", "lowest"])
+# The stage's expansion: Step-space's (``GridExpansion``, its minimum speed the stage's), the stage's settings and
+# the coreachable cells; in a search, with each node's risk (slow hops on its path), whether it was expanded, and
+# each merge cell's node (``PrunedSearch``)
+PrunedExpansion = namedtuple("PrunedExpansion", ["grid", "stage", "cells"])
+PrunedSearch = namedtuple("PrunedSearch", ["grid", "stage", "cells", "risk", "expanded", "holder"])
+# The stage's admission: a popped node superseded in its merge cell (``holder``, shared with the expansion) is skipped
+MergeAdmission = namedtuple("MergeAdmission", ["stage", "holder"])
 
 
 @compiled()
@@ -29,94 +43,101 @@ def cell_key(x, xdot, merge_x, merge_xdot):
 
 @compiled()
 def alive(x, z, v, cells, reach, g, target_x):
-    """``Coreach.alive`` for one apex: past the target, or its first descent can touch down on one of ``cells`` (lo,
-    hi, top, lowest top: the cells from which the target can be reached, in increasing x)."""
+    """``Coreach.alive`` for one apex: past the target, or its first descent can touch down on one of the
+    coreachable ``cells``."""
     if x >= target_x:
         return True
-    lo, hi, top, lowest = cells
-    far = x + v * math.sqrt(2.0 * max(z - lowest, 0.0) / g) + reach
-    k = np.searchsorted(hi, x - reach)   # the first cell with hi >= x - reach
-    while k < lo.shape[0] and lo[k] <= far:
-        if z >= top[k] and lo[k] <= x + v * math.sqrt(2.0 * max(z - top[k], 0.0) / g) + reach:
+    far = x + v * math.sqrt(2.0 * max(z - cells.lowest, 0.0) / g) + reach
+    k = np.searchsorted(cells.hi, x - reach)   # the first cell with hi >= x - reach
+    while k < cells.lo.shape[0] and cells.lo[k] <= far:
+        if z >= cells.top[k] and cells.lo[k] <= x + v * math.sqrt(2.0 * max(z - cells.top[k], 0.0) / g) + reach:
             return True
         k += 1
     return False
 
 
 @compiled()
-def add_node(tree, size, risk, expanded_flag, node, angle, foothold, apex, priority, rk):
-    """Node ``size``: the child of ``node`` at ``apex`` with its queue priority and risk, not yet expanded."""
-    parent, angles, footholds, apexes, cost, depth = tree
-    parent[size], angles[size], footholds[size], cost[size] = node, angle, foothold, priority
-    depth[size], risk[size], expanded_flag[size] = depth[node] + 1, rk, False
-    apexes[size, 0], apexes[size, 1], apexes[size, 2] = apex[0], apex[1], apex[2]
+def new_stage(expansion, root):
+    """The stage's (search, admission) from apex ``root``, whose node 0 holds the root's merge cell."""
+    stage = expansion.stage
+    holder = Dict.empty(key_type=types.int64, value_type=types.int64)   # merge cell -> the node that holds it
+    holder[cell_key(root[0], root[2], stage.merge_x, stage.merge_xdot)] = 0
+    search = PrunedSearch(expansion.grid, stage, expansion.cells, np.zeros(CAPACITY, np.int64),
+                          np.zeros(CAPACITY, np.bool_), holder)
+    return search, MergeAdmission(stage, holder)
 
 
 @compiled()
-def pruned_best_first(root, terr, p, net, sin_a, cos_a, s, stage, cells, max_nodes, deadline):
-    """The stage from apex ``root`` with grid settings ``s`` (``planners.core.grid``), stage settings ``stage``
-    (CAREFUL..TARGET_X) and the coreachable ``cells`` (``alive``). Returns (tree, its size, goals, expanded nodes,
-    step-map calls, expansions, stop code, time slots)."""
-    careful, merge_x, merge_xdot, risk_cost = stage[CAREFUL], stage[MERGE_X], stage[MERGE_XDOT], stage[RISK_COST]
-    reach, g, target_x = stage[REACH], stage[GRAVITY_G], stage[TARGET_X]
-    tree = new_tree(root[0], root[1], root[2])
-    size = np.int64(1)   # int64 counters, not literals: see planners/core/search.py
-    risk, expanded_flag = np.zeros(CAPACITY, np.int64), np.zeros(CAPACITY, np.bool_)
-    seen = Dict.empty(key_type=types.int64, value_type=types.int64)   # merge cell -> the node that holds it
-    seen[cell_key(root[0], root[2], merge_x, merge_xdot)] = 0
-    keys, ids, heap = np.empty(CAPACITY), np.empty(CAPACITY, np.int64), np.int64(0)
-    keys, ids, heap = heap_push(keys, ids, heap, -root[0], np.int64(0))
-    goals, expanded = np.empty(1, np.int64), np.empty(max_nodes, np.int64)
-    n_goals = ode_calls = expansions = np.int64(0)
-    slots = np.zeros(N_SLOTS)
-    stop = EXHAUSTED
-    while heap > 0:
-        spent = budget_stop(expansions, max_nodes, ode_calls, np.int64(NO_LIMIT), deadline)
-        if spent != GO_ON:
-            stop = spent
-            break
-        node, heap = heap_pop(keys, ids, heap)
-        a = tree[3][node]
-        if seen[cell_key(a[0], a[2], merge_x, merge_xdot)] != node:
-            continue   # superseded by a safer arrival in its cell
-        angles, footholds, apexes, d, calls, beyond = expand_grid(a[0], a[1], a[2], terr, p, net, sin_a, cos_a, s,
-                                                                  slots)
-        expanded[expansions] = node
-        expansions += 1
-        ode_calls += calls
-        expanded_flag[node] = True
-        if beyond and node > 0:
-            goals[0], n_goals, stop = node, 1, GOALS
-            break
-        k = angles.shape[0]
-        tree = reserve(tree, size, k)
-        risk, expanded_flag = grown(risk, size + k), grown(expanded_flag, size + k)
-        slow = np.empty(k, np.int64)
-        goal, goal_risk = -1, np.int64(0)
-        for j in range(k):   # a child past the target ends the search: the first with the least risk
-            slow[j] = 1 if apexes[j, 2] < careful else 0
-            if footholds[j] >= target_x and (goal < 0 or risk[node] + slow[j] < goal_risk):
-                goal, goal_risk = j, risk[node] + slow[j]
-        if goal >= 0:
-            add_node(tree, size, risk, expanded_flag, node, angles[goal], footholds[goal], apexes[goal], 0.0, goal_risk)
-            goals[0], n_goals, stop = size, 1, GOALS
-            size += 1
-            break
-        for level in range(2):   # fast hops first, each group in foothold order
-            for j in range(k):
-                if slow[j] != level:
+def expand_pruned(expansion, tree, size, node, slots):
+    """The stage's expansion of ``node``: Step-space's children, the first past the target with the least risk alone
+    (a goal), else those alive and first in their merge cell (or less risky than its holder not yet expanded), fast
+    hops first, each group in foothold order, queued by risk times ``risk_cost`` less their x."""
+    e, st = expansion, expansion.stage
+    kids, _ = expand_grid(e.grid, tree, size, node, slots)
+    e.expanded[node] = True
+    k = kids.angles.shape[0]
+    risk, expanded = grown(e.risk, size + k), grown(e.expanded, size + k)
+    e = PrunedSearch(e.grid, st, e.cells, risk, expanded, e.holder)
+    slow = np.empty(k, np.int64)
+    goal, goal_risk = -1, np.int64(0)
+    for j in range(k):   # a child past the target ends the search: the first with the least risk
+        slow[j] = 1 if kids.apexes[j, 2] < st.careful else 0
+        if kids.footholds[j] >= st.target_x and (goal < 0 or risk[node] + slow[j] < goal_risk):
+            goal, goal_risk = j, risk[node] + slow[j]
+    if goal >= 0:
+        risk[size], expanded[size] = goal_risk, False
+        return Children(kids.angles[goal:goal + 1], kids.footholds[goal:goal + 1], kids.apexes[goal:goal + 1],
+                        np.zeros(1), kids.ode_calls, kids.beyond, False, 0), e
+    order = np.empty(k, np.int64)
+    keys = np.empty(k)
+    n = 0
+    for level in range(2):   # fast hops first, each group in foothold order
+        for j in range(k):
+            if slow[j] != level:
+                continue
+            a = kids.apexes[j]
+            if not alive(a[0], a[1], a[2], e.cells, st.reach, st.gravity, st.target_x):
+                continue
+            rk = risk[node] + level
+            key = cell_key(a[0], a[2], st.merge_x, st.merge_xdot)
+            if key in e.holder:
+                held = e.holder[key]
+                if risk[held] <= rk or expanded[held]:
                     continue
-                if not alive(apexes[j, 0], apexes[j, 1], apexes[j, 2], cells, reach, g, target_x):
-                    continue
-                rk = risk[node] + level
-                key = cell_key(apexes[j, 0], apexes[j, 2], merge_x, merge_xdot)
-                if key in seen:
-                    held = seen[key]
-                    if risk[held] <= rk or expanded_flag[held]:
-                        continue
-                priority = risk_cost * rk - apexes[j, 0]
-                add_node(tree, size, risk, expanded_flag, node, angles[j], footholds[j], apexes[j], priority, rk)
-                seen[key] = size
-                keys, ids, heap = heap_push(keys, ids, heap, priority, size)
-                size += 1
-    return tree, size, goals[:n_goals], expanded[:expansions], ode_calls, expansions, stop, slots
+            order[n], keys[n] = j, st.risk_cost * rk - a[0]
+            risk[size + n], expanded[size + n] = rk, False
+            e.holder[key] = size + n
+            n += 1
+    chosen = order[:n]
+    return Children(kids.angles[chosen], kids.footholds[chosen], kids.apexes[chosen], keys[:n], kids.ode_calls,
+                    kids.beyond, False, NO_GOAL), e
+
+
+@compiled()
+def merge_admit(admission, tree, node, slots):
+    """``admit`` for a ``MergeAdmission``: a popped node that no longer holds its merge cell is skipped."""
+    a = tree.apex[node]
+    if admission.holder[cell_key(a[0], a[2], admission.stage.merge_x, admission.stage.merge_xdot)] != node:
+        return SKIPPED, 0, admission
+    return ADMITTED, 0, admission
+
+
+STATEFUL.add(PrunedExpansion)
+
+
+@overload(start)
+def _start(expansion, admission, root):
+    if getattr(expansion, "instance_class", None) is PrunedExpansion:
+        return lambda expansion, admission, root: new_stage(expansion, root)
+
+
+@overload(expand)
+def _expand(expansion, tree, size, node, slots):
+    if getattr(expansion, "instance_class", None) is PrunedSearch:
+        return lambda expansion, tree, size, node, slots: expand_pruned(expansion, tree, size, node, slots)
+
+
+@overload(admit)
+def _admit(admission, tree, node, slots):
+    if getattr(admission, "instance_class", None) is MergeAdmission:
+        return lambda admission, tree, node, slots: merge_admit(admission, tree, node, slots)

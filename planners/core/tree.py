@@ -1,22 +1,45 @@
-"""The compiled search's tree and frontier as arrays that grow by doubling.
+"""A search's tree and frontier as arrays that grow by doubling, and the children an expansion adds to them.
 
-A tree is the tuple (parent, angle, foothold, apex (N, 3), cost, depth), node 0 the root, as
-``planners.search.tree.SearchTree`` holds them in lists. The frontier is a binary heap of (cost, node) pairs in two
-arrays, ordered as Python's ``heapq`` orders the tuples (cost, then node), so the two pop the same sequence."""
+A ``Tree`` holds every node: node 0 the root (the start apex, no foothold), node i > 0 the child of ``parent[i]``
+by the leg ``angle[i]`` that lands on ``foothold[i]`` and reaches ``apex[i]`` (x, z, xdot), with its queue
+``cost[i]`` and ``depth[i]``. The frontier is a binary heap of (cost, node) pairs in two arrays, ordered as
+Python's ``heapq`` orders the tuples (cost, then node). ``Children`` are what one expansion of a node found: their
+leg angles, footholds, next apexes and queue keys, the step-map calls it took, whether a hop went past the
+perception window (``beyond``), whether the node has candidates left (``more``) and which child, if any, is a goal
+already (``goal``)."""
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
 from drakeslip.compiled import compiled
 from planners.core.clock import now
 
-# stop codes (planners/core/search.py names them), "go on", and the unlimited step-map budget
+Tree = namedtuple("Tree", ["parent", "angle", "foothold", "apex", "cost", "depth"])
+# the frontier: a binary heap of ``size`` (key, node) pairs in two arrays
+Frontier = namedtuple("Frontier", ["keys", "ids", "size"])
+Children = namedtuple("Children", ["angles", "footholds", "apexes", "keys", "ode_calls", "beyond", "more", "goal"])
+# the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
+Scoring = namedtuple("Scoring", ["target_x", "progress", "speed", "isolation"])
+
+# stop codes (``planners.search.tree.STOPS`` names them), "go on", and the unlimited step-map budget
 GOALS, EXHAUSTED, NODES, ODE_CALLS, TIME = range(5)
 GO_ON = -1
 NO_LIMIT = -1
 CAPACITY = 256   # the nodes a new tree and frontier have room for before they first grow
+NO_GOAL = -1     # ``Children.goal`` when none of the children is a goal yet
+
+
+@compiled()
+def child_costs(footholds, apexes, isolation, scoring):
+    """The queue key of each child: progress * |x - target| + speed * |xdot| + isolation * D (the paper's h)."""
+    keys = np.empty(footholds.shape[0])
+    for j in range(footholds.shape[0]):
+        keys[j] = (scoring.progress * abs(footholds[j] - scoring.target_x) + scoring.speed * abs(apexes[j, 2])
+                   + scoring.isolation * isolation[j])
+    return keys
 
 
 @compiled(inline="always")
@@ -34,9 +57,9 @@ def budget_stop(expansions, max_nodes, ode_calls, max_ode_calls, deadline):
 
 @compiled()
 def tree_arrays(capacity):
-    """A tree's arrays with room for ``capacity`` nodes, none set."""
-    return (np.empty(capacity, np.int64), np.empty(capacity), np.empty(capacity), np.empty((capacity, 3)),
-            np.empty(capacity), np.empty(capacity, np.int64))
+    """A tree with room for ``capacity`` nodes, none set."""
+    return Tree(np.empty(capacity, np.int64), np.empty(capacity), np.empty(capacity), np.empty((capacity, 3)),
+                np.empty(capacity), np.empty(capacity, np.int64))
 
 
 @compiled()
@@ -44,9 +67,8 @@ def new_tree(root_x, root_z, root_xdot):
     """A tree holding the root alone (no parent, angle or foothold; cost inf, depth 0), with room for CAPACITY
     nodes."""
     tree = tree_arrays(np.int64(CAPACITY))
-    parent, angle, foothold, apex, cost, depth = tree
-    parent[0], angle[0], foothold[0], cost[0], depth[0] = -1, math.nan, math.nan, math.inf, 0
-    apex[0, 0], apex[0, 1], apex[0, 2] = root_x, root_z, root_xdot
+    tree.parent[0], tree.angle[0], tree.foothold[0], tree.cost[0], tree.depth[0] = -1, math.nan, math.nan, math.inf, 0
+    tree.apex[0, 0], tree.apex[0, 1], tree.apex[0, 2] = root_x, root_z, root_xdot
     return tree
 
 
@@ -73,18 +95,22 @@ def copy_head(dst, src, n):
 @compiled(inline="always")
 def reserve(tree, size, extra):
     """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed)."""
-    parent, angle, foothold, apex, cost, depth = tree
-    if size + extra <= parent.shape[0]:
+    if size + extra <= tree.parent.shape[0]:
         return tree
-    capacity = max(2 * parent.shape[0], size + extra)
-    larger = tree_arrays(capacity)
-    copy_head(larger[0], parent, size)
-    copy_head(larger[1], angle, size)
-    copy_head(larger[2], foothold, size)
-    copy_head(larger[3], apex, size)
-    copy_head(larger[4], cost, size)
-    copy_head(larger[5], depth, size)
+    larger = tree_arrays(max(2 * tree.parent.shape[0], size + extra))
+    copy_head(larger.parent, tree.parent, size)
+    copy_head(larger.angle, tree.angle, size)
+    copy_head(larger.foothold, tree.foothold, size)
+    copy_head(larger.apex, tree.apex, size)
+    copy_head(larger.cost, tree.cost, size)
+    copy_head(larger.depth, tree.depth, size)
     return larger
+
+
+@compiled()
+def new_frontier():
+    """An empty frontier with room for CAPACITY nodes."""
+    return Frontier(np.empty(CAPACITY), np.empty(CAPACITY, np.int64), np.int64(0))
 
 
 @compiled(inline="always")
@@ -93,8 +119,9 @@ def _before(keys, ids, a, b):
 
 
 @compiled(inline="always")
-def heap_push(keys, ids, size, key, node):
-    """Push (key, node); returns the heap's arrays (grown when full) and its new size."""
+def heap_push(frontier, key, node):
+    """The frontier with (key, node) pushed (its arrays grown when full)."""
+    keys, ids, size = frontier
     if size == keys.shape[0]:
         keys2, ids2 = np.empty(2 * size + 16), np.empty(2 * size + 16, np.int64)
         copy_head(keys2, keys, size)
@@ -109,12 +136,13 @@ def heap_push(keys, ids, size, key, node):
         keys[i], keys[up] = keys[up], keys[i]
         ids[i], ids[up] = ids[up], ids[i]
         i = up
-    return keys, ids, size + 1
+    return Frontier(keys, ids, size + 1)
 
 
 @compiled(inline="always")
-def heap_pop(keys, ids, size):
-    """Remove the least (key, node); returns its node and the heap's new size."""
+def heap_pop(frontier):
+    """Remove the least (key, node); returns its node and the frontier after."""
+    keys, ids, size = frontier
     node = ids[0]
     size -= 1
     keys[0], ids[0] = keys[size], ids[size]
@@ -126,24 +154,23 @@ def heap_pop(keys, ids, size):
         if left + 1 < size and _before(keys, ids, left + 1, least):
             least = left + 1
         if least == i:
-            return node, size
+            return node, Frontier(keys, ids, size)
         keys[i], keys[least] = keys[least], keys[i]
         ids[i], ids[least] = ids[least], ids[i]
         i = least
 
 
-@compiled(inline="always")
-def add_children(tree, size, node, angles, footholds, apexes, d, target_x, weights, keys, ids, heap):
-    """Add a node's children to the tree, each with its cost, and push them on the frontier; returns the tree,
+@compiled()
+def add_children(tree, size, node, children, frontier):
+    """Add a node's children to the tree, each with its queue key, and push them on the frontier; returns the tree,
     its size and the frontier."""
-    k = angles.shape[0]
+    k = children.angles.shape[0]
     tree = reserve(tree, size, k)
-    parent, angle, foothold, apex, cost, depth = tree
-    progress, speed, spread = weights
     for j in range(k):
         i = size + j
-        c = progress * abs(footholds[j] - target_x) + speed * abs(apexes[j, 2]) + spread * d[j]
-        parent[i], angle[i], foothold[i], cost[i], depth[i] = node, angles[j], footholds[j], c, depth[node] + 1
-        apex[i, 0], apex[i, 1], apex[i, 2] = apexes[j, 0], apexes[j, 1], apexes[j, 2]
-        keys, ids, heap = heap_push(keys, ids, heap, c, i)
-    return tree, size + k, keys, ids, heap
+        tree.parent[i], tree.angle[i], tree.foothold[i] = node, children.angles[j], children.footholds[j]
+        tree.cost[i], tree.depth[i] = children.keys[j], tree.depth[node] + 1
+        tree.apex[i, 0], tree.apex[i, 1], tree.apex[i, 2] = (children.apexes[j, 0], children.apexes[j, 1],
+                                                              children.apexes[j, 2])
+        frontier = heap_push(frontier, children.keys[j], i)
+    return tree, size + k, frontier

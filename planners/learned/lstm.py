@@ -11,7 +11,7 @@ from drakeslip.units import PAPER, units_of
 
 from planners.base import FootstepSequence, Plan, Planner, Problem
 from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
-from planners.learned.inference import NumpyFootstepModel, softmax
+from planners.learned.inference import PlanningFootstepModel, softmax
 from planners.learned.inputs import WindowEncoding, encode_window
 from planners.learned.model import FootstepModel, load_checkpoint
 from planners.learned.ranker import FootholdRanker, candidate_features, log_probability, top_candidates
@@ -30,13 +30,12 @@ def load_model(path=None) -> FootstepModel:
 
 
 class FootstepDistribution:
-    """Runs the model on one perception window, in numpy (planners/learned/inference.py). ``mask_ditches`` forbids
+    """Runs the model on one perception window (planners/learned/inference.py). ``mask_ditches`` forbids
     ditch cells (a foot there is a certain FOOT_COLLISION, a physical constraint rather than a terrain
     heuristic)."""
 
     def __init__(self, model: FootstepModel, mask_ditches: bool = True):
-        self.model_weights = model   # the torch model, for the compiled core's copy (planners/core/model.py)
-        self.model = NumpyFootstepModel(model)
+        self.model = PlanningFootstepModel(model)
         self.mask_ditches = mask_ditches
 
     @property
@@ -90,6 +89,7 @@ class LSTMPlanner(Planner):
 
     name = "lstm"
 
+    # many parameters: the planner's options, each set by name in a label's preset (planners.registry.PRESETS)
     def __init__(self, model=EXPERT_WEIGHTS, max_steps: int = 1, mask_ditches: bool = True,
                  controller: StepLengthController | None = None, edge_margin: float | None = None,
                  feedback: str = "distribution", ranker=RANKER_WEIGHTS, top_k: int = 5, **budget):

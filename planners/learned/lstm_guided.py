@@ -11,13 +11,15 @@ from drakeslip.compiled import compiling
 from drakeslip.terrain import DITCH_HEIGHT
 
 from planners.checkpoints import SUBCELL_WEIGHTS
-from planners.core.model import ModelArrays
+from planners.core.grid import children_of
+from planners.core.sampled import SampledExpansion, WindowSettings, weighted_order
 from planners.learned.inference import softmax
 from planners.learned.inputs import SAME_CELL, encode_window, model_cell
 from planners.learned.lstm import FootstepDistribution, load_model
 from planners.search.robust import Robustness
 from planners.search.step_space import StepSpacePlanner, attempt_name
-from planners.search.tree import Children, CostWeights, best_first, run_attempts
+from planners.search.loop import search
+from planners.search.tree import CostWeights, run_attempts
 
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
@@ -100,6 +102,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
     name = "lstm-guided"
 
+    # many parameters: the planner's options, each set by name in a label's preset (planners.registry.PRESETS)
     def __init__(self, model=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
                  temperature: float = 1.0, mask_ditches: bool = True, seed: int = 0, lazy: bool = True,
                  conditioning: str = "apex", cost_weights: CostWeights | tuple = CostWeights(),
@@ -123,7 +126,7 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             raise ValueError(f"floor must be a probability in [0, 1), got {floor!r}")
         self.floor = float(floor)
         self.grid_fallback = bool(grid_fallback)
-        self.core_model = ModelArrays(self.net.model_weights) if self.conditioning == "apex" else None
+        self.core_model = self.net.model.arrays if self.conditioning == "apex" else None
         if self.core_model is not None and self.step_map == "fast":
             warm_up_sampled(self)
 
@@ -148,14 +151,21 @@ class LSTMGuidedPlanner(StepSpacePlanner):
 
     def _search(self, problem, branching, robust=None):
         window = self.core_window(problem)
-        if window is not None:
-            from planners.core.search import sampled_search  # compiled on first use: imports stay light
+        width = 1 if self.lazy else branching
+        if window is None:
+            return self.python_search(problem, branching, robust)
+        grid = self.expansion(problem, self.spacings(problem.units)[0], problem.window_end)
+        expansion = SampledExpansion(*grid, window, self.core_model, self.fresh_rng(), int(width))
+        return search(problem, expansion, self.admission(problem, robust), self.n_sequences,
+                      self.search_budget(robust))
 
-            settings = self.core_settings(problem, self.spacings(problem.units)[0], problem.window_end)
-            return sampled_search(problem, settings, window, self.core_model, self.fresh_rng(),
-                                  1 if self.lazy else branching, robust, self.controller.for_params(problem.params),
-                                  self.cost_weights, self.n_sequences, self.search_budget(robust), problem.timing)
-        return self.numpy_search(problem, branching, robust)
+    def python_search(self, problem, branching, robust=None):
+        """The search run as Python (``ModelSamplingExpansion``): the Drake step map's, the path-conditioned
+        model's, and, with the apex-conditioned model on the fast step map, the same tree as the compiled search's
+        (tests/test_core.py)."""
+        expansion = ModelSamplingExpansion(self, problem, 1 if self.lazy else branching)
+        return search(problem, expansion, self.admission(problem, robust), self.n_sequences,
+                      self.search_budget(robust))
 
     def fresh_rng(self) -> np.random.Generator:
         """A generator in the state ``np.random.default_rng(self.seed)`` starts in: this planner's one, reset (a
@@ -166,48 +176,52 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self._rng.bit_generator.state = self._rng_start
         return self._rng
 
-    def numpy_search(self, problem, branching, robust=None):
-        """The search in Python (``best_first`` expanding with the sampler, ``aim`` and ``simulate``): the Drake
-        step map's, the path-conditioned model's, and the reference whose trees the compiled core makes."""
-        sampler = PathConditionedSampler(self.net, problem, self.temperature, self.conditioning)
-        terrain, params = problem.terrain, problem.params
-        rng = np.random.default_rng(self.seed)
-        draws: dict = {}  # node -> its candidates, angles, LSTM-weighted order and how far it has been used
 
-        def expand(tree, node) -> Children:
-            """Simulate the node's next ``branching`` admissible candidates in LSTM-weighted random order (a
-            weighted draw without replacement), more until one succeeds; candidates are aimed lazily, in small
-            chunks. A node with candidates left goes back in the queue (Children.more)."""
-            if node not in draws:
-                apex = tree.apex[node]
-                x_l = self.candidates(apex, terrain, params, self.spacings(problem.units)[0], problem.window_end)
-                order = weighted_order(np.maximum(sampler.probabilities(tree, node, x_l), self.floor), rng)
-                draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": order, "pos": 0, "ready": []}
-            d = draws[node]
-            apex, x_l, theta, order = tree.apex[node], d["x"], d["theta"], d["order"]
-            ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
-            tried, calls = [], 0
-            width = 1 if self.lazy else branching
-            while d["pos"] < order.size or d["ready"]:
-                while len(d["ready"]) < width and d["pos"] < order.size:  # aiming is the cost: lazily
-                    chunk = order[d["pos"]:d["pos"] + 4 * width]
-                    d["pos"] += chunk.size
-                    theta[chunk] = self.aim(apex, x_l[chunk], terrain, params)
-                    d["ready"] += [i for i in chunk.tolist() if theta[i] == theta[i]]
-                batch = np.array(d["ready"][:width], dtype=np.int64)
-                d["ready"] = d["ready"][width:]
-                tried += batch.tolist()
-                ok[batch], apexes[batch] = self.simulate(problem, apex, x_l[batch], theta[batch])
-                calls += batch.size
-                if ok[batch].any():
-                    break
-            idx = np.sort(np.array(tried, dtype=np.int64))
-            children = self.children(problem, x_l[idx], theta[idx], ok[idx], apexes[idx], calls)
-            children.more = bool(d["pos"] < order.size or d["ready"])
-            return children
+class ModelSamplingExpansion:
+    """LSTM-guided sampling's expansion run as Python (``planners.core.sampled`` compiles it for the apex-conditioned
+    model on the model's cells and the fast step map): the same draws with the path-conditioned model
+    (``PathConditionedSampler``), on terrains of other cells, or on the Drake step map. A node's candidates are
+    simulated ``width`` at a time in the model's weighted random order (a draw without replacement), more until one
+    succeeds, aimed lazily in small chunks; a node with candidates left goes back in the queue (``Children.more``)."""
 
-        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
-                          self.admission(problem, robust))
+    def __init__(self, planner: LSTMGuidedPlanner, problem, width: int):
+        self.planner, self.problem, self.width = planner, problem, int(width)
+        self.grid = planner.expansion(problem, planner.spacings(problem.units)[0], problem.window_end)
+        self.sampler = PathConditionedSampler(planner.net, problem, planner.temperature, planner.conditioning)
+        self.rng = np.random.default_rng(planner.seed)
+        self.draws: dict = {}  # node -> its candidates, angles, weighted order and how far it has been used
+
+    def expand(self, tree, size, node, slots):
+        """(the node's children, this expansion)."""
+        planner, problem, width = self.planner, self.problem, self.width
+        apex = tuple(map(float, tree.apex[node]))
+        if node not in self.draws:
+            x_l = planner.candidates(apex, problem.terrain, problem.params, self.grid.grid.spacing,
+                                     problem.window_end)
+            p = np.maximum(self.sampler.probabilities(tree, node, x_l), planner.floor)
+            self.draws[node] = {"x": x_l, "theta": np.full(x_l.size, np.nan), "order": weighted_order(p, self.rng),
+                                "pos": 0, "ready": []}
+        d = self.draws[node]
+        x_l, theta, order = d["x"], d["theta"], d["order"]
+        ok, apexes = np.zeros(x_l.size, dtype=bool), np.zeros((x_l.size, 3))
+        tried, calls = [], 0
+        while d["pos"] < order.size or d["ready"]:
+            while len(d["ready"]) < width and d["pos"] < order.size:  # aiming is the cost: lazily
+                chunk = order[d["pos"]:d["pos"] + 4 * width]
+                d["pos"] += chunk.size
+                theta[chunk] = planner.aim(apex, x_l[chunk], problem.terrain, problem.params)
+                d["ready"] += [i for i in chunk.tolist() if theta[i] == theta[i]]
+            batch = np.array(d["ready"][:width], dtype=np.int64)
+            d["ready"] = d["ready"][width:]
+            tried += batch.tolist()
+            ok[batch], apexes[batch] = planner.simulate(problem, apex, x_l[batch], theta[batch])
+            calls += batch.size
+            if ok[batch].any():
+                break
+        idx = np.sort(np.array(tried, dtype=np.int64))
+        children = children_of(x_l[idx], theta[idx], ok[idx], apexes[idx], calls, self.grid.grid, self.grid.scoring)
+        more = bool(d["pos"] < order.size or d["ready"])
+        return children._replace(more=more), self
 
 
 def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
@@ -222,21 +236,14 @@ def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:
 
 
 def core_window_settings(problem, net: FootstepDistribution, temperature: float, floor: float):
-    """The compiled core's window settings (``planners.core.sampled``'s N_CELLS..FLOOR) for ``problem``, or None
+    """The compiled core's window settings (``planners.core.sampled.WindowSettings``) for ``problem``, or None
     where the core does not encode the model's window: a terrain whose cells are not the model's."""
     units, terrain = problem.units, problem.terrain
     ahead, behind = units.window
     cell = model_cell(units)
     if abs(terrain.cell - cell) > SAME_CELL * cell:
         return None
-    return np.array([max(1, int(round((ahead + behind) / terrain.cell))), int(round(behind / terrain.cell)),
-                     int(round(behind / cell)), units.length, units.speed, min(DITCH_HEIGHT * units.length, 0.0),
-                     net.subcells, net.mask_ditches, temperature, floor], dtype=np.float64)
-
-
-def weighted_order(p: np.ndarray, rng) -> np.ndarray:
-    """The indices with p > 0 in the order of a weighted draw without replacement (Efraimidis and Spirakis:
-    sort by u^(1/p), u uniform)."""
-    idx = np.flatnonzero(p > 0)
-    keys = np.log(rng.uniform(size=idx.size)) / p[idx]
-    return idx[np.argsort(-keys)]
+    return WindowSettings(float(max(1, int(round((ahead + behind) / terrain.cell)))),
+                          float(int(round(behind / terrain.cell))), float(int(round(behind / cell))),
+                          float(units.length), float(units.speed), float(min(DITCH_HEIGHT * units.length, 0.0)),
+                          float(net.subcells), float(net.mask_ditches), float(temperature), float(floor))

@@ -9,9 +9,12 @@ import numpy as np
 from drakeslip import step_batch
 
 from planners.base import Plan, Planner, Problem
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Children,
-                                  CostWeights, SearchResult, best_first, clear_of_edges, isolation, run_attempts,
-                                  warm_up)
+from planners.core.grid import isolation
+from planners.core.tree import NO_GOAL, Children, child_costs
+from planners.search.loop import ADMIT_ALL, search
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, CostWeights,
+                                  SearchResult, clear_of_edges, run_attempts, warm_up)
+
 
 class AngleSpacePlanner(Planner):
     """Each expansion draws ``branching`` leg angles in the friction cone, one uniformly in each of
@@ -46,27 +49,40 @@ class AngleSpacePlanner(Planner):
         return self._search(problem, branching or self.branchings[0])
 
     def _search(self, problem: Problem, branching: int) -> SearchResult:
-        rng = np.random.default_rng(self.seed)
-        limit = FRICTION_MARGIN * math.atan(problem.params.friction)
-        edges = np.linspace(-limit, limit, branching + 1)
-        params, terrain, window_end, units = problem.params, problem.terrain, problem.window_end, problem.units
-        min_speed = units.speed_or(self.min_speed, MIN_SPEED)
-        edge_margin, at_failure = units.length_or(self.edge_margin, EDGE_MARGIN), ISOLATION_AT_FAILURE * units.length
-
-        def expand(tree, node) -> Children:
-            angles = edges[:-1] + rng.uniform(0.0, 1.0, branching) * np.diff(edges)
-            res = step_batch(tree.apex[node], angles, terrain, params)
-            ok = res.ok & (res.next_xdot >= min_speed)
-            ok[ok] &= clear_of_edges(terrain, res.touchdown_x[ok], edge_margin)
-            inside = res.touchdown_x < window_end  # hops past the window end the sequence, they are not in it
-            d = isolation(res.touchdown_x, ok, at_failure)[inside[ok]]
-            beyond = bool(np.any(ok & ~inside))
-            ok &= inside
-            apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]
-            return Children(angles[ok], res.touchdown_x[ok], apexes, d, branching, beyond)
-
-        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.budget)
+        return search(problem, AngleExpansion(self, problem, branching), ADMIT_ALL, self.n_sequences, self.budget)
 
     def _plan(self, problem: Problem) -> Plan:
         return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.branchings])
 
+
+
+class AngleExpansion:
+    """Angle-space's expansion (run as Python): ``branching`` leg angles in the friction cone, one uniformly in
+    each of ``branching`` equal strata, simulated with one batched fast step-map call."""
+
+    def __init__(self, planner: AngleSpacePlanner, problem: Problem, branching: int):
+        self.problem, self.branching = problem, branching
+        self.rng = np.random.default_rng(planner.seed)
+        limit = FRICTION_MARGIN * math.atan(problem.params.friction)
+        self.edges = np.linspace(-limit, limit, branching + 1)
+        units = problem.units
+        self.min_speed = units.speed_or(planner.min_speed, MIN_SPEED)
+        self.edge_margin = units.length_or(planner.edge_margin, EDGE_MARGIN)
+        self.at_failure = ISOLATION_AT_FAILURE * units.length
+        self.scoring = planner.cost_weights.scoring(problem)
+
+    def expand(self, tree, size, node, slots):
+        """(the node's children, this expansion)."""
+        problem, edges = self.problem, self.edges
+        angles = edges[:-1] + self.rng.uniform(0.0, 1.0, self.branching) * np.diff(edges)
+        res = step_batch(tuple(map(float, tree.apex[node])), angles, problem.terrain, problem.params)
+        ok = res.ok & (res.next_xdot >= self.min_speed)
+        ok[ok] &= clear_of_edges(problem.terrain, res.touchdown_x[ok], self.edge_margin)
+        inside = res.touchdown_x < problem.window_end  # hops past the window end the sequence, they are not in it
+        d = isolation(res.touchdown_x, ok, self.at_failure)[inside[ok]]
+        beyond = bool(np.any(ok & ~inside))
+        ok &= inside
+        apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]
+        footholds = res.touchdown_x[ok]
+        return Children(angles[ok], footholds, apexes, child_costs(footholds, apexes, d, self.scoring),
+                        self.branching, beyond, False, NO_GOAL), self

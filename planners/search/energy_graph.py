@@ -27,7 +27,8 @@ can touch down there by (2) and (3). Cell i reaches cell j if the gap lo_j - hi_
 goes back by less than 2 L0 s (1, 3), and (5) holds on (hi_i + L0 s, lo_j - L0 s), which only that flight covers.
 Cell i ends at the goal if hi_i + L0 s + H - a_i >= goal_x (4) with (5) up to goal_x. The touchdowns of any
 successful run are a path of this graph, so **if no path reaches the goal, no run of the model does**: no leg
-angles (on no grid), no speeds, no number of hops. That is ``verification.energy_bound.prove_unreachable`` ("proved-not-traversable").
+angles (on no grid), no speeds, no number of hops. That is ``verification.energy_bound.prove_unreachable``
+("proved-not-traversable").
 Every bound is loosened by ``ENERGY_SLACK`` on H and ``GEOMETRY_SLACK`` on positions, far above the backends'
 energy drift (~1e-8 relative a hop) and event tolerances (FACE_TOLERANCE = 1e-5 m), so a claim holds for the
 fast step map as it integrates the model. (Drake evaluates its guards at step ends, 2 ms apart, so a Drake run
@@ -35,8 +36,8 @@ could clip a corner shorter than that unnoticed: the claim is about the model.)
 
 Run backwards, the graph gives the cells from which the goal can be reached at all (``Coreach``). An apex whose
 next touchdown (its exact first descent, by (2) and (3) and the range alone) cannot be on one of them has no way
-to the goal, so the oracle's search and the planners' pruned stage (``planners.search.pruned``) drop it without losing any
-plan (``Coreach.alive``).
+to the goal, so the oracle's search and the planners' pruned stage (``planners.search.pruned``) drop it without losing
+any plan (``Coreach.alive``).
 """
 from __future__ import annotations
 

@@ -3,10 +3,12 @@ kept apart so that importing the energy graph does not load numba."""
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from drakeslip.compiled import compiled
 
 
-@njit(cache=True)
+# many parameters: the cells' arrays and the query, as compiled code reads them
+@compiled()
 def first_failing_pair(a, bound, lo, hi, h, rank, levels, H, slack):
     """``CellGraph.fly_limit``: over the cells q with hi_q > a and lo_q < bound, in order, the least
     max(lo_q, cap) over the pairs p <= q with cap = max(lo_p, a) + 2 (H - min(h_p, h_q)) + slack < hi_q. For each

@@ -26,8 +26,11 @@ import numpy as np
 
 from drakeslip.compiled import compiling
 
-from planners.base import Problem
+from planners.base import Budget, Problem
+from planners.core.grid import GridExpansion
+from planners.core.pruned import Coreachable, PrunedExpansion, StageSettings
 from planners.search.energy_graph import CellGraph, Coreach, GraphTooLarge
+from planners.search.loop import search
 from planners.search.tree import SearchResult, SearchTree
 
 # Node budget of the stage: about a second on one core (0.2 ms a node: some 20 candidates aimed and flown). The
@@ -39,17 +42,13 @@ MIN_SPEED = 0.1     # [m/s]: slower apexes are dropped (the oracle's floor)
 RISK_COST = 0.3     # [m] of progress the queue takes off per slow hop on a node's path (the oracle's)
 
 
-def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes: int = MAX_NODES) -> SearchResult:
-    """The stage from ``problem``'s start, with Step-space's grid ``settings`` (``StepSpacePlanner.core_settings``)
-    and ``controller``, on the compiled core (``planners.core.pruned``); stops at the first sequence whose foothold
-    passes the target (or whose hop lands past the window), an empty queue ("exhausted"), no path in the energy graph
-    ("unreachable"), ``max_nodes`` expansions or the problem's deadline; it is skipped when the energy graph would be
-    too large (``energy_graph.MAX_CELLS``). Adds the controller's and the step map's
-    time to ``problem.timing``."""
-    from planners.core.grid import MIN_SPEED as MIN_SPEED_FIELD   # the compiled core, loaded on first use
-    from planners.core.pruned import pruned_best_first
-    from planners.core.search import STOPS, reach_angles, terrain_arrays, tree_of
-
+def pruned_search(problem: Problem, grid: GridExpansion, max_nodes: int = MAX_NODES) -> SearchResult:
+    """The stage from ``problem``'s start, expanding with Step-space's ``grid`` expansion (``StepSpacePlanner
+    .expansion``), on the one best-first loop (``planners.core.pruned`` plugs in the merge cells and the energy graph);
+    stops at the first sequence whose foothold passes the target (or whose hop lands past the window), an empty queue
+    ("exhausted"), no path in the energy graph ("unreachable"), ``max_nodes`` expansions or the problem's deadline; it
+    is skipped when the energy graph would be too large (``energy_graph.MAX_CELLS``). Adds the controller's and the
+    step map's time to ``problem.timing``."""
     units, params, terrain = problem.units, problem.params, problem.terrain
     try:
         graph = CellGraph(problem.apex, terrain, problem.target_x, params)
@@ -58,16 +57,9 @@ def pruned_search(problem: Problem, settings: np.ndarray, controller, max_nodes:
     if graph.wall() is not None or not np.any(graph.closure(graph.starts) & graph.ends):
         return SearchResult(SearchTree(tuple(problem.apex)), 0, 0, "unreachable")
     coreach = Coreach(graph)
-    cells = (coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
-    s = settings.copy()
-    careful, s[MIN_SPEED_FIELD] = float(settings[MIN_SPEED_FIELD]), MIN_SPEED * units.speed
-    stage = np.array([careful, MERGE_X * units.length, MERGE_XDOT * units.speed, RISK_COST * units.length,
-                      graph.reach, graph.g, problem.target_x])
-    sin_a, cos_a = reach_angles(params)
+    cells = Coreachable(coreach.lo, coreach.hi, coreach.top, float(coreach.top.min(initial=np.inf)))
+    stage = StageSettings(grid.grid.min_speed, MERGE_X * units.length, MERGE_XDOT * units.speed,
+                          RISK_COST * units.length, float(graph.reach), float(graph.g), float(problem.target_x))
+    grid = grid._replace(grid=grid.grid._replace(min_speed=MIN_SPEED * units.speed))   # the stage's floor
     with compiling():   # compiled at its first use in a process: most plans never reach this stage
-        tree, size, goals, expanded, ode_calls, expansions, stop, slots = pruned_best_first(
-            np.array(problem.apex, dtype=np.float64), terrain_arrays(terrain), params.as_array(),
-            controller.arrays().astuple(), sin_a, cos_a, s, stage, cells, int(max_nodes), float(problem.deadline))
-    problem.timing.add(slots)
-    return SearchResult(tree_of(problem.apex, tree, size, goals, expanded), int(ode_calls), int(expansions),
-                        STOPS[stop])
+        return search(problem, PrunedExpansion(grid, stage, cells), None, 1, Budget(max_nodes=int(max_nodes)))

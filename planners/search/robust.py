@@ -35,15 +35,14 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from drakeslip.compiled import compiled
 from drakeslip import SlipParams, Terrain
-from drakeslip.dynamics import I_FRICTION, I_MASS, I_STIFFNESS, height_at
-from drakeslip.fast_step import (N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS,
-                                 step_one)
+from drakeslip.dynamics import I_FRICTION, I_MASS, I_STIFFNESS
 from drakeslip.noise import PROFILES, NoiseProfile, friction_factor
 from drakeslip.params import check_count
-from drakeslip.terrain import LEVEL_TOLERANCE
 from drakeslip.units import units_of
+
+from planners.core.particles import NO_FAN, Worlds, fly_particles
+from planners.core.robust import RobustAdmission, RobustCheck, aim_particles, robust_admission
 
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
@@ -163,31 +162,26 @@ class Robustness:
 
     def fly(self, particles: "Particles", foothold: float, controller, terrain: Terrain, last: bool):
         """(robust, the particles' next apexes (P, 3), hops flown) for the candidate ``foothold`` on ``terrain``,
-        the map the planner sees; ``last``: this is the last robust hop, so every particle must also have a way on
-        from where it lands. One controller call for the particles' aims, then one compiled call that flies them
-        and checks where they land (``fly_particles``); the next apexes mean something only when robust."""
-        told = particles.states + particles.apex_errors
-        aims = controller.leg_angles(told, np.full(particles.states.shape[0], float(foothold)), terrain)
-        angles = np.clip(aims + particles.angle_errors, -1.5, 1.5)
-        w = particles.worlds
-        return fly_particles(particles.states, angles, particles.world, particles.shift, w.params, w.heights, w.x0,
-                             w.cell, w.ditch_height, float(foothold), terrain.heights, terrain.x0, particles.landing,
-                             particles.min_speed, particles.clearance, particles.edge_margin,
-                             particles.fan if last and self.lookahead else NO_FAN, self.lookahead,
-                             self.lookahead_depth)
+        the map the planner sees, the particles aiming with ``controller`` (a ``StepLengthController``); ``last``:
+        this is the last robust hop, so every particle must also have a way on from where it lands. The robust
+        admission's own flights (``planners.core.robust``); the next apexes mean something only when robust."""
+        check, ground = self.check(particles), terrain.ground()
+        angles = aim_particles(check, particles.states, float(foothold), ground, controller.arrays())
+        return fly_particles(check, particles.states, angles, float(foothold), ground, check.fan if last else NO_FAN)
 
+    def check(self, particles: "Particles") -> RobustCheck:
+        """``particles`` and what this robustness asks of them, as the robust admission reads them."""
+        return RobustCheck(int(self.depth), int(self.lookahead), int(self.lookahead_depth),
+                           particles.fan if self.lookahead else NO_FAN, particles.apex_errors,
+                           particles.angle_errors, particles.world, particles.shift, particles.worlds,
+                           float(particles.clearance), float(particles.landing), float(particles.edge_margin),
+                           float(particles.min_speed))
 
-@dataclass(frozen=True)
-class Worlds:
-    """The hoppers and terrains of a particle set, as arrays for ``fly_particles``: world j hops with the parameters
-    ``params[j]`` (``SlipParams.as_array``) over heights ``heights[j]`` starting at ``x0[j]``; all share ``cell``
-    and ``ditch_height``."""
-
-    params: np.ndarray    # (W, 6)
-    heights: np.ndarray   # (W, cells)
-    x0: np.ndarray        # (W,)
-    cell: float
-    ditch_height: float
+    def admission(self, apex, terrain: Terrain, params: SlipParams, controller) -> RobustAdmission:
+        """The robust admission of a search from ``apex`` on ``terrain`` for the hopper ``params``, its particles
+        aiming with ``controller`` (``ControllerArrays``)."""
+        particles = self.particles(apex, terrain, params)
+        return robust_admission(self.check(particles), particles.states, terrain.ground(), controller)
 
 
 @dataclass
@@ -216,91 +210,3 @@ class Particles:
         """The same robots at new apexes."""
         return replace(self, states=states)
 
-
-NO_FAN = np.zeros(0)  # no way-on check
-
-
-@compiled()
-def fly_particles(states, angles, world, shift, params, heights, x0, cell, ditch_height, foothold, seen_heights,
-                  seen_x0, landing, min_speed, clearance, edge_margin, fan, lookahead, lookahead_depth):
-    """Robustness.fly's flights, compiled: particle i hops from ``states[i]`` with ``angles[i]`` in its world
-    (``Worlds`` arrays) and must complete the hop, touch down within ``landing`` of ``foothold`` on its level of the
-    map (``seen_heights`` from ``seen_x0``, sharing the worlds' ``cell``), clear of its edges by ``edge_margin``, and
-    reach its next apex with ``min_speed``, ``clearance`` above the ground under it. Then, for a non-empty ``fan``,
-    each particle must find ``lookahead`` leg angles of the fan that start a way on of ``lookahead_depth`` working
-    hops (``ways_on``). Stops at the first particle that fails and searches a particle's ways on only until it has
-    found ``lookahead``, so the verdict is that of flying every hop and the hops flown are fewer. Returns (robust,
-    next apexes (P, 3), hops flown)."""
-    n = states.shape[0]
-    ends = np.empty((n, 3))
-    out = np.empty(N_OUT)
-    hops = 0
-    for i in range(n):
-        w = world[i]
-        step_one(states[i, 0], states[i, 1], states[i, 2], angles[i], params[w], heights[w], x0[w], cell,
-                 ditch_height, np.int64(STANCE_STEPS), out)
-        hops += 1
-        x, z, xdot, touchdown = out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_TD_X]
-        ends[i, 0], ends[i, 1], ends[i, 2] = x, z, xdot
-        seen = touchdown - shift[i]  # where it landed on the map the planner sees
-        if not (out[OUT_CODE] == OK and abs(touchdown - foothold) <= landing and xdot >= min_speed
-                and z - height_at(seen_heights, seen_x0, cell, x - shift[i]) >= clearance
-                and same_level(seen_heights, seen_x0, cell, seen, foothold)
-                and clear_of_edges_at(seen_heights, seen_x0, cell, seen, edge_margin)):
-            return False, ends, hops
-    for i in range(n if fan.size else 0):
-        w = world[i]
-        found, flown = ways_on(ends[i], fan, lookahead, lookahead_depth, params[w], heights[w], x0[w], cell,
-                               ditch_height, seen_heights, seen_x0, shift[i], min_speed, edge_margin, out)
-        hops += flown
-        if found < lookahead:
-            return False, ends, hops
-    return True, ends, hops
-
-
-@compiled(inline="always")
-def ways_on(apex, fan, wanted, depth, p, heights, x0, cell, ditch_height, seen_heights, seen_x0, shift, min_speed,
-            edge_margin, out):
-    """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex``, hops flown) for a hopper
-    ``p`` over ``heights`` from ``x0`` whose map (``seen_heights`` from ``seen_x0``) is ``shift`` off: a way on is
-    ``depth`` working hops in a row (each completes, lands clear of the map's edges by ``edge_margin`` and keeps
-    ``min_speed``), each hop's leg angle taken from ``fan`` in its order; depth first, so the first way on from an
-    angle ends that angle's search. ``out``: a step_one output buffer."""
-    state = np.empty((depth, 3))
-    angle = np.zeros(depth, np.int64)  # at each hop of the way being tried, the index of its fan angle
-    state[0, 0], state[0, 1], state[0, 2] = apex[0], apex[1], apex[2]
-    found = hops = level = 0
-    while found < wanted:
-        if angle[level] == fan.size:  # no way on from this hop's start: try the hop before it with its next angle
-            if level == 0:
-                break
-            level -= 1
-            angle[level] += 1
-            continue
-        step_one(state[level, 0], state[level, 1], state[level, 2], fan[angle[level]], p, heights, x0, cell,
-                 ditch_height, np.int64(STANCE_STEPS), out)
-        hops += 1
-        if not (out[OUT_CODE] == OK and out[OUT_XDOT] >= min_speed
-                and clear_of_edges_at(seen_heights, seen_x0, cell, out[OUT_TD_X] - shift, edge_margin)):
-            angle[level] += 1
-        elif level + 1 == depth:  # a way on from the first hop's angle: on to the next first angle
-            found += 1
-            level = 0
-            angle[0] += 1
-        else:
-            level += 1
-            state[level, 0], state[level, 1], state[level, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
-            angle[level] = 0
-    return found, hops
-
-
-@compiled()
-def same_level(heights, x0, cell, a, b):
-    """``Terrain.same_level`` on one pair of points, compiled."""
-    return abs(height_at(heights, x0, cell, a) - height_at(heights, x0, cell, b)) <= LEVEL_TOLERANCE
-
-
-@compiled()
-def clear_of_edges_at(heights, x0, cell, x, margin):
-    """``planners.search.tree.clear_of_edges`` at one point, compiled."""
-    return same_level(heights, x0, cell, x - margin, x) and same_level(heights, x0, cell, x + margin, x)

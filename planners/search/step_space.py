@@ -13,16 +13,18 @@ import numpy as np
 from drakeslip import StepLengthController, Terrain, step, step_batch
 from drakeslip.compiled import compiling
 from drakeslip.stepmap import STEP_MAP_BACKENDS
-
 from drakeslip.units import HopperUnits, units_of
 
-from planners.base import Plan, Planner, Problem
+from planners.base import Budget, Plan, Planner, Problem
+from planners.core.grid import (GridExpansion, GridSettings, Reach, aim_candidates, children_of, grid_candidates,
+                                reach_bounds)
 from planners.search.pruned import MAX_NODES as PRUNED_NODES
 from planners.search.pruned import pruned_search
+from planners.core.robust import no_check
+from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
-                                  Children, CostWeights, SearchResult, best_first, clear_of_edges, isolation,
-                                  run_attempts)
+                                  CostWeights, SearchResult, run_attempts)
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
 GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
@@ -70,10 +72,13 @@ class StepSpacePlanner(Planner):
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
-    calls, as it was for the paper's planners. Give it a ``max_time_s`` to match."""
+    calls, as it was for the paper's planners. Give it a ``max_time_s`` to match. Either way the search is the one
+    best-first loop (``planners.search.tree.search``): compiled with the compiled grid expansion
+    (``planners.core.grid``), or as Python with ``PythonGridExpansion``, the same expansion on the Drake step map."""
 
     name = "step"
 
+    # many parameters: the planner's options, each set by name in a label's preset (planners.registry.PRESETS)
     def __init__(self, controller: StepLengthController | None = None, spacing: float | None = None,
                  tolerance: float | None = None, fallback_spacing: tuple | None = None, n_sequences: int = 1,
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
@@ -118,31 +123,37 @@ class StepSpacePlanner(Planner):
             fallback = tuple(s * units.length for s in FALLBACK_SPACINGS)
         return (units.length_or(self.spacing, GRID_SPACING), *fallback)
 
+    def grid_settings(self, problem: Problem, spacing: float, until: float = math.inf) -> GridSettings:
+        """The grid of ``spacing`` for ``problem``, its footholds up to ``until``."""
+        units = problem.units
+        return GridSettings(float(spacing), REACH_PAD * units.length, float(until),
+                            units.length_or(self.edge_margin, EDGE_MARGIN), math.atan(problem.params.friction),
+                            units.length_or(self.tolerance, TOLERANCE), units.speed_or(self.min_speed, MIN_SPEED),
+                            float(problem.window_end), ISOLATION_AT_FAILURE * units.length)
+
+    def expansion(self, problem: Problem, spacing: float, until: float = math.inf) -> GridExpansion:
+        """The compiled grid expansion of ``problem`` on the grid of ``spacing``."""
+        return GridExpansion(self.grid_settings(problem, spacing, until), problem.terrain.ground(),
+                             problem.params.as_array(), self.controller.for_params(problem.params).arrays(),
+                             reach_angles(problem.params), self.cost_weights.scoring(problem))
+
     def candidates(self, apex, terrain, params, spacing: float | None, until: float | None = None) -> np.ndarray:
         """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing (None: the planner's
         first grid for ``params``), up to ``until`` if given. The planner itself asks for the full reach: hops that
         would land past the perception window are simulated too, to tell a sequence that has gone as far as the
-        robot can see (see best_first)."""
-        x, z, v = apex
+        robot can see (see ``planners.core.best_first``)."""
         units = units_of(params)
-        pad = REACH_PAD * units.length
-        lo, hi = touchdown_range(x, z, v, terrain, params)
-        lo, hi = lo - pad, min(hi + pad, math.inf if until is None else until)
-        spacing = spacing or self.spacings(units)[0]
-        first, last = math.ceil((lo - terrain.x0) / spacing - 0.5), math.floor((hi - terrain.x0) / spacing - 0.5)
-        return terrain.x0 + (np.arange(first, last + 1) + 0.5) * spacing
+        grid = GridSettings(spacing or self.spacings(units)[0], REACH_PAD * units.length,
+                            math.inf if until is None else until, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+        return grid_candidates(*map(float, apex), terrain.ground(), params.as_array(), reach_angles(params), grid)
 
     def aim(self, apex, x_l: np.ndarray, terrain, params) -> np.ndarray:
         """The controller's leg angle to each desired foothold, NaN where the foothold is not admissible: a
         ditch cell, within ``edge_margin`` of an edge, or reached only outside the friction cone. Telling these
         apart needs no step-map call."""
         edge_margin = units_of(params).length_or(self.edge_margin, EDGE_MARGIN)
-        keep = (terrain.height_at(x_l) > terrain.ditch_height) & clear_of_edges(terrain, x_l, edge_margin)
-        theta = np.full(x_l.size, np.nan)
-        if keep.any():
-            theta[keep] = self.controller.for_params(params).leg_angles(apex, x_l[keep], terrain)
-        theta[~(np.abs(np.nan_to_num(theta, nan=np.inf)) < math.atan(params.friction))] = np.nan
-        return theta
+        return aim_candidates(*map(float, apex), np.asarray(x_l, dtype=np.float64), terrain.ground(),
+                              self.controller.for_params(params).arrays(), edge_margin, math.atan(params.friction))
 
     def search(self, apex, terrain, goal_x, params=None) -> SearchResult:
         """One search on each grid in turn until one finds a sequence; the result's tree holds every node the
@@ -175,36 +186,17 @@ class StepSpacePlanner(Planner):
         return spacings if robust is None or robust.fallback_grids else spacings[:1]
 
     def _search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
-        if self.step_map == "fast":
-            from planners.core.search import grid_search  # compiled on first use: --help and imports stay light
+        if self.step_map != "fast":
+            return self.python_search(problem, spacing, robust)
+        return search(problem, self.expansion(problem, spacing), self.admission(problem, robust), self.n_sequences,
+                      self.search_budget(robust))
 
-            return grid_search(problem, self.core_settings(problem, spacing), robust,
-                               self.controller.for_params(problem.params), self.cost_weights, self.n_sequences,
-                               self.search_budget(robust), problem.timing)
-        return self.numpy_search(problem, spacing, robust)
-
-    def numpy_search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
-        """The search in Python (``best_first`` expanding with ``candidates``, ``aim`` and ``simulate``): the Drake
-        step map's, and the reference whose trees the compiled core makes node for node."""
-        terrain, params = problem.terrain, problem.params
-
-        def expand(tree, node) -> Children:
-            apex = tree.apex[node]
-            x_l = self.candidates(apex, terrain, params, spacing)
-            theta = self.aim(apex, x_l, terrain, params)
-            ok, apexes = self.simulate(problem, apex, x_l, theta)
-            return self.children(problem, x_l, theta, ok, apexes, int(np.count_nonzero(~np.isnan(theta))))
-
-        return best_first(problem, expand, self.cost_weights, self.n_sequences, self.search_budget(robust),
-                          self.admission(problem, robust))
-
-    def core_settings(self, problem: Problem, spacing: float, until: float = math.inf) -> np.ndarray:
-        """The compiled core's grid settings (``planners.core.grid``'s SPACING..AT_FAILURE) for ``problem``."""
-        units = problem.units
-        return np.array([spacing, REACH_PAD * units.length, until, units.length_or(self.edge_margin, EDGE_MARGIN),
-                         math.atan(problem.params.friction), units.length_or(self.tolerance, TOLERANCE),
-                         units.speed_or(self.min_speed, MIN_SPEED), problem.window_end,
-                         ISOLATION_AT_FAILURE * units.length])
+    def python_search(self, problem: Problem, spacing, robust: Robustness | None = None) -> SearchResult:
+        """The search run as Python, its candidates flown on the planner's step map one call at a time
+        (``PythonGridExpansion``): the Drake step map's search; on the fast step map, the same tree as the compiled
+        search's (tests/test_core.py)."""
+        return search(problem, PythonGridExpansion(self, problem, spacing), self.admission(problem, robust),
+                      self.n_sequences, self.search_budget(robust))
 
     def search_budget(self, robust: Robustness | None):
         """The planner's budget, its nodes capped at ``robust.max_nodes`` for a robust search."""
@@ -236,38 +228,15 @@ class StepSpacePlanner(Planner):
         return ok, apexes
 
     def admission(self, problem: Problem, robust: Robustness | None):
-        """The search's check of each node it pops (``best_first``'s ``admit``), None without ``robust``: the
-        particles of ``robust`` that reached the node's parent fly to its foothold (``Robustness.fly``), and a node
-        of the sequence's first ``robust.depth`` hops is kept only if all of them make it. Checked lazily, one
-        node at a time as the search reaches it, so a search that finds a robust sequence straight away flies the
-        particles over that sequence alone."""
+        """The search's check of each node it pops (``planners.core.robust``): the particles of ``robust`` that
+        reached the node's parent fly to its foothold, and a node of the sequence's first ``robust.depth`` hops is
+        kept only if all of them make it; without ``robust`` every node is kept. Checked lazily, one node at a time
+        as the search reaches it, so a search that finds a robust sequence straight away flies the particles over
+        that sequence alone."""
+        controller = self.controller.for_params(problem.params).arrays()
         if robust is None:
-            return None
-        flights = {0: robust.particles(problem.apex, problem.terrain, problem.params)}  # node -> its particles
-        controller = self.controller.for_params(problem.params)
-
-        def admit(tree, node):
-            depth = tree.depth[node]
-            if node in flights or depth > robust.depth:
-                return True, 0
-            here = flights[tree.parent[node]]
-            passed, ends, hops = robust.fly(here, tree.foothold[node], controller, problem.terrain,
-                                            last=depth == robust.depth)
-            if passed:
-                flights[node] = here.moved(ends)
-            return passed, hops
-
-        return admit
-
-    @staticmethod
-    def children(problem: Problem, x_l, theta, ok, apexes, ode_calls: int) -> Children:
-        """The successful candidates (sorted by x_l) as the node's children; a hop past the window ends the
-        sequence rather than joining it."""
-        inside = x_l < problem.window_end
-        d = isolation(x_l, ok, ISOLATION_AT_FAILURE * problem.units.length)[inside[ok]]
-        beyond = bool(np.any(ok & ~inside))
-        ok = ok & inside
-        return Children(theta[ok], x_l[ok], apexes[ok], d, ode_calls, beyond)
+            return no_check(problem.terrain.ground(), controller)
+        return robust.admission(problem.apex, problem.terrain, problem.params, controller)
 
     def last_resort(self, units: HopperUnits) -> "StepSpacePlanner | None":
         """This planner without robustness, its edge margin ``last_resort_margin`` of its own, for a hopper of
@@ -296,10 +265,29 @@ class StepSpacePlanner(Planner):
             return []
 
         def attempt():
-            settings = self.core_settings(problem, self.spacings(problem.units)[0])
-            return pruned_search(problem, settings, self.controller.for_params(problem.params), self.pruned_nodes)
+            expansion = self.expansion(problem, self.spacings(problem.units)[0])
+            return pruned_search(problem, expansion, self.pruned_nodes)
 
         return [("pruned search", attempt)]
+
+
+class PythonGridExpansion:
+    """Step-space's grid expansion (``planners.core.grid``), its candidates flown by ``StepSpacePlanner.simulate``
+    (on the Drake hybrid simulator, or the fast step map): the expansion of the search run as Python."""
+
+    def __init__(self, planner: StepSpacePlanner, problem: Problem, spacing: float):
+        self.planner, self.problem = planner, problem
+        self.record = planner.expansion(problem, spacing)
+
+    def expand(self, tree, size, node, slots):
+        """(the node's children, this expansion)."""
+        apex, record, problem = tree.apex[node], self.record, self.problem
+        x_l = grid_candidates(*map(float, apex), record.ground, record.params, record.reach, record.grid)
+        theta = aim_candidates(*map(float, apex), x_l, record.ground, record.controller, record.grid.edge_margin,
+                               record.grid.max_angle)
+        ok, apexes = self.planner.simulate(problem, apex, x_l, theta)
+        calls = int(np.count_nonzero(~np.isnan(theta)))
+        return children_of(x_l, theta, ok, apexes, calls, record.grid, record.scoring), self
 
 
 @functools.cache
@@ -307,15 +295,13 @@ def warm_up_core() -> None:
     """Compile (or load from numba's cache) the planning core's grid search once per process, so its JIT start-up is
     not charged to a plan's time budget. The pruned stage, which a plan reaches only where the searches find
     nothing, is compiled when first used (``planners.search.pruned``)."""
-    from planners.core.search import grid_search
-    from planners.base import Budget
-
     planner = StepSpacePlanner(max_nodes=1, step_map="drake")  # a planner that does not warm up the core itself
+    planner.step_map = "fast"
     problem = planner.problem((0.0, 1.0, 1.0), Terrain.flat(), 1.0, None, time.perf_counter())
+    planner.budget = Budget(max_nodes=1)
     with compiling():
         for robust in (None, Robustness()):
-            grid_search(problem, planner.core_settings(problem, GRID_SPACING), robust, planner.controller,
-                        planner.cost_weights, 1, Budget(max_nodes=1), problem.timing)
+            planner._search(problem, GRID_SPACING, robust)
 
 
 def attempt_name(robustness: Robustness | None) -> str:
@@ -326,23 +312,15 @@ def attempt_name(robustness: Robustness | None) -> str:
     return f"robust ({robustness.sigmas:g} sigma, depth {robustness.depth}{fan}) "
 
 
+@functools.lru_cache(maxsize=64)
+def reach_angles(params) -> Reach:
+    """Sines and cosines of the reach angles (a grid across the friction cone, REACH_ANGLES of FRICTION_MARGIN of
+    its half-angle) of the hopper ``params``, computed once per hopper."""
+    angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
+    return Reach(np.sin(angles), np.cos(angles))
+
+
 def touchdown_range(x: float, z: float, v: float, terrain, params) -> tuple[float, float]:
     """Bounds on where a flight from apex (x, z, v) can touch down on solid ground with a leg angle inside the
-    friction cone. The foot, L0 sin(a) ahead of the body, meets ground of height h when the body has fallen to
-    h + L0 cos(a): touchdown at x + L0 sin(a) + v sqrt(2 (z - h - L0 cos(a)) / g). That is not monotone in
-    a (a leg near vertical lands soonest) and it depends on the height of the ground it lands on, not the one
-    under the apex (over a ditch that would be the ditch floor), so the bounds take every angle of a grid and
-    the highest and lowest solid cell the foot could reach."""
-    L0, g = params.leg_length, params.gravity
-    angles = REACH_ANGLES * FRICTION_MARGIN * math.atan(params.friction)
-    solid = terrain.heights[terrain.heights > terrain.ditch_height]
-    if solid.size == 0:
-        solid = terrain.heights
-    far = x + L0 + v * math.sqrt(2 * max(z - float(solid.min()), 0.0) / g)
-    cells = terrain.heights[terrain.index(x - L0):terrain.index(far) + 1]
-    cells = cells[cells > terrain.ditch_height]
-    if cells.size == 0:
-        cells = np.array([terrain.height_at(x)])
-    h = np.array([cells.max(), cells.min()])[:, None]  # the highest ground is met soonest, the lowest latest
-    reach = x + L0 * np.sin(angles) + v * np.sqrt(2 * np.maximum(z - h - L0 * np.cos(angles), 0.0) / g)
-    return float(reach[0].min()), float(reach[1].max())
+    friction cone (``planners.core.grid.reach_bounds``)."""
+    return reach_bounds(float(x), float(z), float(v), terrain.ground(), params.as_array(), reach_angles(params))

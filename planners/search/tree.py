@@ -1,12 +1,9 @@
-"""Best-first search over footstep trees (Algorithm 1 of the paper), shared by the search planners. A planner
-supplies the children of a node; this module grows the tree, scores the children and pops the cheapest node
-until d nodes pass the target or a budget runs out.
-"""
+"""Best-first search over footstep trees (Algorithm 1 of the paper), as the search planners run it: the settings
+they share, the tree a search returns, and the planners' attempts (``run_attempts``); a search itself is
+``planners.search.loop.search``."""
 from __future__ import annotations
 
 import functools
-import heapq
-import time
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -46,18 +43,12 @@ class CostWeights:
     speed: float = 1.0
     isolation: float = 2.0
 
+    def scoring(self, problem: Problem):
+        """The node cost's weights for ``problem`` (its target, the hopper's time unit), as the search reads them."""
+        from planners.core.tree import Scoring   # the compiled core, loaded by the searches: imports stay light
 
-@dataclass
-class Children:
-    """The successful children of one expansion, as arrays (k = how many)."""
-
-    angles: np.ndarray      # (k,) leg angles
-    footholds: np.ndarray   # (k,) the footholds the plan records (touchdown, or the desired x_L)
-    apexes: np.ndarray      # (k, 3) predicted next apex
-    isolation: np.ndarray   # (k,) D, the spread to the nearest sibling footholds
-    ode_calls: int
-    beyond: bool = False    # a successful hop from this node lands past the perception window
-    more: bool = False      # the node has candidates left untried: expand it again if the search comes back
+        return Scoring(float(problem.target_x), float(self.progress), float(self.speed * problem.units.time),
+                       float(self.isolation))
 
 
 @dataclass
@@ -84,17 +75,6 @@ class SearchTree:
 
     def __len__(self):
         return len(self.parent)
-
-    def add(self, parent: int, children: Children, cost: np.ndarray) -> range:
-        first = len(self.parent)
-        k = children.angles.size
-        self.parent.extend([parent] * k)
-        self.angle.extend(children.angles.tolist())
-        self.foothold.extend(children.footholds.tolist())
-        self.apex.extend(map(tuple, children.apexes.tolist()))
-        self.cost.extend(cost.tolist())
-        self.depth.extend([self.depth[parent] + 1] * k)
-        return range(first, first + k)
 
     def branch(self, node: int) -> list[int]:
         """The nodes from the root's child on the way to ``node`` through ``node`` itself."""
@@ -136,106 +116,15 @@ def warm_up() -> None:
         step_batch((0.0, 1.0, 1.0), [0.1], Terrain.flat())
 
 
-def isolation(footholds: np.ndarray, ok: np.ndarray, at_failure: float = ISOLATION_AT_FAILURE) -> np.ndarray:
-    """D for each successful sample: the mean spread to its nearest successful siblings on either side, the
-    samples taken in the order they were generated (increasing angle or desired foothold). A neighbour sample
-    that failed with no success beyond it counts ``at_failure`` (ISOLATION_AT_FAILURE in the hopper's lengths);
-    at the end of the sampled range the spread to the one existing neighbour counts twice."""
-    idx = np.flatnonzero(ok)
-    x = footholds[idx]
-    n = footholds.size
-    if idx.size == 0:
-        return np.zeros(0)
-    left = np.full(idx.size, np.nan)
-    right = np.full(idx.size, np.nan)
-    left[1:] = np.abs(x[1:] - x[:-1])
-    right[:-1] = left[1:]
-    # no successful sibling on a side: a failure boundary if a failed sample lies there, else the range end
-    left[0] = at_failure if idx[0] > 0 else np.nan
-    right[-1] = at_failure if idx[-1] < n - 1 else np.nan
-    left = np.where(np.isnan(left), right, left)
-    right = np.where(np.isnan(right), left, right)
-    d = 0.5 * (left + right)
-    return np.where(np.isnan(d), at_failure, d)
-
-
 @dataclass
 class SearchResult:
     tree: SearchTree
     ode_calls: int
     nodes_expanded: int
-    stop: str   # "goals", "exhausted" (queue empty), "nodes" or "ode_calls" (budget), "time" (safety limit)
+    stop: str   # one of STOPS, or why the search did not run ("unreachable", "skipped, ...")
 
 
-def best_first(problem: Problem, expand, cost_weights: CostWeights, n_sequences: int, budget: Budget,
-               admit=None) -> SearchResult:
-    """Algorithm 1: expand the cheapest node, add its successful children, pop the next cheapest; a popped
-    node whose foothold passes the target is a goal. So is an expanded node with a successful hop past the
-    window's far edge: its sequence goes as far as the robot can see (at speed, one stride can jump the whole
-    band between the target and the edge). Stops at ``n_sequences`` goals, an empty queue, the ``budget``'s
-    node expansions or step-map calls, or the problem's deadline (the safety limit). ``expand(tree, node) ->
-    Children``.
-
-    ``admit(tree, node) -> (passed, step-map calls)``, if given, checks each popped node before it can be a goal
-    or be expanded (a lazy check: only the nodes the search gets to are checked); a node that fails is closed,
-    and counts as an expansion with no children."""
-    tree = SearchTree(tuple(problem.apex))
-    w, units = cost_weights, problem.units
-    speed_weight, reexpand = w.speed * units.time, REEXPAND_PENALTY * units.length
-    queue: list = []
-    ode_calls = expansions = 0
-    node = 0  # the node to expand next; None after a popped node failed ``admit``
-    stop = "exhausted"
-    while True:
-        if expansions >= budget.max_nodes:
-            stop = "nodes"
-            break
-        if budget.max_ode_calls is not None and ode_calls >= budget.max_ode_calls:
-            stop = "ode_calls"
-            break
-        if time.perf_counter() >= problem.deadline:
-            stop = "time"
-            break
-        if node is not None:
-            children = expand(tree, node)
-            expansions += 1
-            tree.expanded.append(node)
-            ode_calls += children.ode_calls
-            if children.beyond and node > 0:
-                tree.goals.append(node)
-                if len(tree.goals) >= n_sequences:
-                    stop = "goals"
-                    break
-            if children.angles.size:
-                cost = (w.progress * np.abs(children.footholds - problem.target_x)
-                        + speed_weight * np.abs(children.apexes[:, 2]) + w.isolation * children.isolation)
-                for i, c in zip(tree.add(node, children, cost), cost.tolist()):
-                    heapq.heappush(queue, (c, i))
-            if children.more:  # back in the queue behind its own children (the root: behind everything)
-                heapq.heappush(queue, (tree.cost[node] + reexpand, node))
-        node = -1
-        while queue:
-            _, i = heapq.heappop(queue)
-            if admit is not None:
-                passed, calls = admit(tree, i)
-                ode_calls += calls
-                if not passed:
-                    expansions += 1
-                    node = None
-                    break
-            if tree.foothold[i] >= problem.target_x:
-                tree.goals.append(i)
-                if len(tree.goals) >= n_sequences:
-                    break
-                continue
-            node = i
-            break
-        if len(tree.goals) >= n_sequences:
-            stop = "goals"
-            break
-        if node == -1:
-            break
-    return SearchResult(tree, ode_calls, expansions, stop)
+STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")   # by the stop codes of planners/core/tree.py
 
 
 def run_attempts(planner: Planner, problem: Problem, attempts) -> Plan:

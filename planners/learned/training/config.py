@@ -107,7 +107,7 @@ class RankerTrainConfig:
 class TrainConfig:
     """The footstep model's training loop (train_lstm.py)."""
 
-    data: str = "data/footsteps"        # folder(s) of dataset shards (*.npz) written by generate_dataset, comma-separated
+    data: str = "data/footsteps"        # folder(s), comma-separated, of dataset shards (*.npz) from generate_dataset
     out: str = "planners/weights/lstm_paper.pt"
     checkpoint: str = "out/lstm_checkpoint.pt"
     epochs: int = 30
@@ -120,4 +120,4 @@ class TrainConfig:
     seed: int = 0
     device: str = "cpu"
     max_sequences: int = 0              # 0 = all
-    init: str = ""                      # weights to start from (fine-tuning, e.g. on DAgger data) instead of a fresh model
+    init: str = ""                      # weights to start from (fine-tuning, e.g. on DAgger data), not a fresh model

@@ -40,8 +40,8 @@ from planners.learned.inputs import encode_window, pad_steps
 from planners.learned.training.config import DatasetConfig
 
 __all__ = ["DatasetConfig", "dataset_hopper", "dataset_goal", "instance", "search_tree", "instance_sequences",
-           "expert_sequences", "make_shard", "save_shard", "shard_store", "generate", "statistics", "write_shard", "shard_path", "write_manifest",
-           "pending_shards", "count_sequences", "local_copy"]
+           "expert_sequences", "make_shard", "save_shard", "shard_store", "generate", "statistics", "write_shard",
+           "shard_path", "write_manifest", "pending_shards", "count_sequences", "local_copy"]
 
 
 def dataset_hopper(cfg: DatasetConfig) -> SlipParams:

@@ -156,12 +156,8 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
     if cfg.viable_weight > 0 and "viable" not in data:
         raise ValueError(f"viable_weight={cfg.viable_weight} needs viable sets, which the shards in {cfg.data} "
                          "predate; regenerate them")
-    if cfg.init:
-        model = load_checkpoint(cfg.init)[0].to(cfg.device).train()
-        model_config = model.config
-    else:
-        model_config = model_config or ModelConfig(subcells=subcells, hidden=width[0], channels=width[1])
-        model = FootstepModel(model_config).to(cfg.device)
+    model = initial_model(cfg, model_config or ModelConfig(subcells=subcells, hidden=width[0], channels=width[1]))
+    model_config = model.config
     n = data["terrain"].shape[0]
     if data["terrain"].shape[1] != model_config.n_cells or subcells != model_config.subcells:
         raise ValueError(f"dataset windows have {data['terrain'].shape[1]} cells of {subcells} bins, model expects "
@@ -187,19 +183,9 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
 
     for epoch in range(start_epoch, cfg.epochs):
         t0 = time.time()
-        for group in opt.param_groups:  # cosine schedule, recomputed so that resuming needs no scheduler state
-            group["lr"] = 0.5 * cfg.lr * (1 + math.cos(math.pi * epoch / cfg.epochs))
-        epoch_idx = train_idx[np.random.default_rng(cfg.seed + epoch).permutation(train_idx.size)]
-        total = count = 0.0
-        for batch in _batches(data, epoch_idx, cfg.batch_size, cfg.device):
-            loss, _, _, c = batch_loss(model, batch, cfg.own_inputs, generator, cfg.viable_weight)
-            opt.zero_grad(set_to_none=True)
-            loss.backward()
-            torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
-            opt.step()
-            total, count = total + loss.item() * c, count + c
+        train_loss = train_epoch(model, opt, data, train_idx, epoch, cfg, generator)
         val = evaluate(model, data, val_idx, cfg)
-        row = {"epoch": epoch, "train_loss": total / max(count, 1), **{f"val_{k}": v for k, v in val.items()},
+        row = {"epoch": epoch, "train_loss": train_loss, **{f"val_{k}": v for k, v in val.items()},
                "seconds": time.time() - t0}
         history.append(row)
         log(json.dumps({k: round(v, 4) if isinstance(v, float) else v for k, v in row.items()}))
@@ -210,3 +196,27 @@ def train(cfg: TrainConfig, model_config: ModelConfig | None = None, log=print,
             save_checkpoint(cfg.checkpoint, model, {"optimizer": opt.state_dict(), "epoch": epoch,
                                                     "history": history, "best_val": best, "setup": setup})
     return {"history": history, "best_val_loss": best, "n_train": int(train_idx.size), "n_val": int(n_val)}
+
+
+def initial_model(cfg: TrainConfig, model_config: ModelConfig) -> FootstepModel:
+    """The model training starts from, on ``cfg.device``: ``cfg.init``'s weights, else a new ``model_config`` one."""
+    if cfg.init:
+        return load_checkpoint(cfg.init)[0].to(cfg.device).train()
+    return FootstepModel(model_config).to(cfg.device)
+
+
+def train_epoch(model, opt, data, train_idx, epoch: int, cfg: TrainConfig, generator) -> float:
+    """One epoch over the training sequences (in an order drawn from the seed and the epoch), with the cosine
+    schedule's learning rate; the mean training loss."""
+    for group in opt.param_groups:  # cosine schedule, recomputed so that resuming needs no scheduler state
+        group["lr"] = 0.5 * cfg.lr * (1 + math.cos(math.pi * epoch / cfg.epochs))
+    epoch_idx = train_idx[np.random.default_rng(cfg.seed + epoch).permutation(train_idx.size)]
+    total = count = 0.0
+    for batch in _batches(data, epoch_idx, cfg.batch_size, cfg.device):
+        loss, _, _, c = batch_loss(model, batch, cfg.own_inputs, generator, cfg.viable_weight)
+        opt.zero_grad(set_to_none=True)
+        loss.backward()
+        torch.nn.utils.clip_grad_norm_(model.parameters(), 1.0)
+        opt.step()
+        total, count = total + loss.item() * c, count + c
+    return total / max(count, 1)

@@ -65,6 +65,7 @@ class CollectingPlanner(LSTMPlanner):
         return np.where(np.arange(score.size) == top[pick], score, 0.0)
 
 
+# many parameters: a job runner task's arguments, sent to a worker as they are
 def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: int, top_k: int, explore: float,
             hopper: dict | None = None):
     """One shard: (features (states, record_k, N_FEATURES), rooms (states, record_k), NaN where a state had fewer
@@ -85,6 +86,7 @@ def collect(family: str, seed: int, n_terrains: int, model, ranker, record_k: in
     return np.stack(planner.features), np.stack(planner.rooms)
 
 
+# many parameters: a job runner task's arguments, sent to a worker as they are
 def collect_shard(family: str, seed: int, n_terrains: int, model: bytes, ranker: bytes | None, record_k: int,
                   top_k: int, explore: float, hopper: dict | None = None):
     """``collect`` as a task of the job runner: the footstep ``model`` and the learner's ``ranker``
