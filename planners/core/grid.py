@@ -7,14 +7,12 @@ import math
 from collections import namedtuple
 
 import numpy as np
-from numba.extending import overload
 
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
 
-from planners.core.best_first import expand
 from planners.core.clock import CONTROLLER, STEP_MAP, now
 from planners.core.ground import clear_of_edges_at
 from planners.core.tree import NO_GOAL, Children, child_costs
@@ -29,6 +27,7 @@ Reach = namedtuple("Reach", ["sin", "cos"])
 # Step-space's expansion: the grid, the map (``drakeslip.terrain.Ground``), the hopper (``SlipParams.as_array``),
 # the controller (``ControllerArrays``), the reach angles and the node cost's ``Scoring``
 GridExpansion = namedtuple("GridExpansion", ["grid", "ground", "params", "controller", "reach", "scoring"])
+NO_STATE = 0   # the state of an expansion that keeps none
 
 
 @compiled(inline="always")
@@ -156,9 +155,9 @@ def children_of(x_l, theta, ok, apexes, ode_calls, grid, scoring):
 
 
 @compiled()
-def expand_grid(expansion, tree, size, node, slots):
-    """Step-space's expansion of ``node``: (its children, the expansion); adds the controller's and the step map's
-    time to ``slots``."""
+def expand_grid(expansion, state, tree, size, node, slots):
+    """Step-space's expansion of ``node`` (``planners.core.best_first.expand``): its children, and the state (the
+    grid keeps none: NO_STATE); adds the controller's and the step map's time to ``slots``."""
     e, grid = expansion, expansion.grid
     x, z, v = tree.apex[node, 0], tree.apex[node, 1], tree.apex[node, 2]
     x_l = grid_candidates(x, z, v, e.ground, e.params, e.reach, grid)
@@ -178,10 +177,5 @@ def expand_grid(expansion, tree, size, node, slots):
     t2 = now()
     slots[CONTROLLER] += t1 - t0
     slots[STEP_MAP] += t2 - t1
-    return children_of(x_l, theta, ok, apexes, calls, grid, e.scoring), expansion
+    return children_of(x_l, theta, ok, apexes, calls, grid, e.scoring), state
 
-
-@overload(expand)
-def _expand(expansion, tree, size, node, slots):
-    if getattr(expansion, "instance_class", None) is GridExpansion:
-        return lambda expansion, tree, size, node, slots: expand_grid(expansion, tree, size, node, slots)

@@ -8,13 +8,12 @@ from collections import namedtuple
 
 import numpy as np
 from numba import types
-from numba.extending import overload
 from numba.typed import Dict
 
 from drakeslip.compiled import compiled
 
-from planners.core.best_first import ADMITTED, SKIPPED, STATEFUL, admit, expand, start
-from planners.core.grid import expand_grid
+from planners.core.best_first import ADMITTED, SKIPPED
+from planners.core.grid import NO_STATE, expand_grid
 from planners.core.tree import CAPACITY, NO_GOAL, Children, grown
 
 # The stage's settings: apexes slower than ``careful`` make a hop risky, the merge cells' size in x and xdot, the
@@ -25,12 +24,12 @@ StageSettings = namedtuple("StageSettings", ["careful", "merge_x", "merge_xdot",
 # x ranges, tops, and the lowest top
 Coreachable = namedtuple("Coreachable", ["lo", "hi", "top", "lowest"])
 # The stage's expansion: Step-space's (``GridExpansion``, its minimum speed the stage's), the stage's settings and
-# the coreachable cells; in a search, with each node's risk (slow hops on its path), whether it was expanded, and
-# each merge cell's node (``PrunedSearch``)
+# the coreachable cells; its state in a search: each node's risk (slow hops on its path), whether it was expanded,
+# and each merge cell's node (``holder``)
 PrunedExpansion = namedtuple("PrunedExpansion", ["grid", "stage", "cells"])
-PrunedSearch = namedtuple("PrunedSearch", ["grid", "stage", "cells", "risk", "expanded", "holder"])
-# The stage's admission: a popped node superseded in its merge cell (``holder``, shared with the expansion) is skipped
-MergeAdmission = namedtuple("MergeAdmission", ["stage", "holder"])
+PrunedState = namedtuple("PrunedState", ["risk", "expanded", "holder"])
+# The stage's admission: a popped node superseded in its merge cell is skipped; its state is the expansion's holder
+MergeAdmission = namedtuple("MergeAdmission", ["stage"])
 
 
 @compiled()
@@ -57,27 +56,27 @@ def alive(x, z, v, cells, reach, g, target_x):
 
 
 @compiled()
-def new_stage(expansion, root):
-    """The stage's (search, admission) from apex ``root``, whose node 0 holds the root's merge cell."""
+def start_stage(expansion, admission, root):
+    """``planners.core.best_first.start`` for the stage: (its expansion's state, its admission's state, the same
+    merge cells) from apex ``root``, whose node 0 holds the root's merge cell."""
     stage = expansion.stage
     holder = Dict.empty(key_type=types.int64, value_type=types.int64)   # merge cell -> the node that holds it
     holder[cell_key(root[0], root[2], stage.merge_x, stage.merge_xdot)] = 0
-    search = PrunedSearch(expansion.grid, stage, expansion.cells, np.zeros(CAPACITY, np.int64),
-                          np.zeros(CAPACITY, np.bool_), holder)
-    return search, MergeAdmission(stage, holder)
+    return PrunedState(np.zeros(CAPACITY, np.int64), np.zeros(CAPACITY, np.bool_), holder), holder
 
 
 @compiled()
-def expand_pruned(expansion, tree, size, node, slots):
-    """The stage's expansion of ``node``: Step-space's children, the first past the target with the least risk alone
-    (a goal), else those alive and first in their merge cell (or less risky than its holder not yet expanded), fast
-    hops first, each group in foothold order, queued by risk times ``risk_cost`` less their x."""
+def expand_pruned(expansion, state, tree, size, node, slots):
+    """The stage's expansion of ``node`` (``planners.core.best_first.expand``): Step-space's children, the first past
+    the target with the least risk alone (a goal), else those alive and first in their merge cell (or less risky
+    than its holder not yet expanded), fast hops first, each group in foothold order, queued by risk times
+    ``risk_cost`` less their x."""
     e, st = expansion, expansion.stage
-    kids, _ = expand_grid(e.grid, tree, size, node, slots)
-    e.expanded[node] = True
+    kids, _ = expand_grid(e.grid, NO_STATE, tree, size, node, slots)
+    state.expanded[node] = True
     k = kids.angles.shape[0]
-    risk, expanded = grown(e.risk, size + k), grown(e.expanded, size + k)
-    e = PrunedSearch(e.grid, st, e.cells, risk, expanded, e.holder)
+    risk, expanded, holder = grown(state.risk, size + k), grown(state.expanded, size + k), state.holder
+    state = PrunedState(risk, expanded, holder)
     slow = np.empty(k, np.int64)
     goal, goal_risk = -1, np.int64(0)
     for j in range(k):   # a child past the target ends the search: the first with the least risk
@@ -87,7 +86,7 @@ def expand_pruned(expansion, tree, size, node, slots):
     if goal >= 0:
         risk[size], expanded[size] = goal_risk, False
         return Children(kids.angles[goal:goal + 1], kids.footholds[goal:goal + 1], kids.apexes[goal:goal + 1],
-                        np.zeros(1), kids.ode_calls, kids.beyond, False, 0), e
+                        np.zeros(1), kids.ode_calls, kids.beyond, False, 0), state
     order = np.empty(k, np.int64)
     keys = np.empty(k)
     n = 0
@@ -100,44 +99,24 @@ def expand_pruned(expansion, tree, size, node, slots):
                 continue
             rk = risk[node] + level
             key = cell_key(a[0], a[2], st.merge_x, st.merge_xdot)
-            if key in e.holder:
-                held = e.holder[key]
+            if key in holder:
+                held = holder[key]
                 if risk[held] <= rk or expanded[held]:
                     continue
             order[n], keys[n] = j, st.risk_cost * rk - a[0]
             risk[size + n], expanded[size + n] = rk, False
-            e.holder[key] = size + n
+            holder[key] = size + n
             n += 1
     chosen = order[:n]
     return Children(kids.angles[chosen], kids.footholds[chosen], kids.apexes[chosen], keys[:n], kids.ode_calls,
-                    kids.beyond, False, NO_GOAL), e
+                    kids.beyond, False, NO_GOAL), state
 
 
-@compiled()
-def merge_admit(admission, tree, node, slots):
-    """``admit`` for a ``MergeAdmission``: a popped node that no longer holds its merge cell is skipped."""
+@compiled(inline="always")
+def merge_admit(admission, state, tree, node, slots):
+    """``planners.core.best_first.admit`` for a ``MergeAdmission`` (its state the expansion's merge cells): a popped
+    node that no longer holds its merge cell is skipped."""
     a = tree.apex[node]
-    if admission.holder[cell_key(a[0], a[2], admission.stage.merge_x, admission.stage.merge_xdot)] != node:
-        return SKIPPED, 0, admission
-    return ADMITTED, 0, admission
-
-
-STATEFUL.add(PrunedExpansion)
-
-
-@overload(start)
-def _start(expansion, admission, root):
-    if getattr(expansion, "instance_class", None) is PrunedExpansion:
-        return lambda expansion, admission, root: new_stage(expansion, root)
-
-
-@overload(expand)
-def _expand(expansion, tree, size, node, slots):
-    if getattr(expansion, "instance_class", None) is PrunedSearch:
-        return lambda expansion, tree, size, node, slots: expand_pruned(expansion, tree, size, node, slots)
-
-
-@overload(admit)
-def _admit(admission, tree, node, slots):
-    if getattr(admission, "instance_class", None) is MergeAdmission:
-        return lambda admission, tree, node, slots: merge_admit(admission, tree, node, slots)
+    if state[cell_key(a[0], a[2], admission.stage.merge_x, admission.stage.merge_xdot)] != node:
+        return SKIPPED, 0, state
+    return ADMITTED, 0, state

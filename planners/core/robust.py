@@ -8,13 +8,12 @@ from __future__ import annotations
 from collections import namedtuple
 
 import numpy as np
-from numba.extending import overload
 
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
 from drakeslip.fast_controller import aim_rows
 
-from planners.core.best_first import ADMITTED, REFUTED, admit
+from planners.core.best_first import ADMITTED, REFUTED
 from planners.core.clock import CONTROLLER, STEP_MAP, now
 from planners.core.particles import NO_FAN, Worlds, fly_particles
 from planners.core.tree import CAPACITY, copy_head, grown
@@ -27,15 +26,23 @@ from planners.core.tree import CAPACITY, copy_head, grown
 RobustCheck = namedtuple("RobustCheck", ["depth", "lookahead", "lookahead_depth", "fan", "apex_errors",
                                          "angle_errors", "world", "shift", "worlds", "clearance", "landing",
                                          "edge_margin", "min_speed"])
-# A search's robust admission: the check, the map the planner sees (``planners.core.grid.Ground``), the controller
-# (``ControllerArrays``), and the flights so far: each node's row of ``states`` (-1: none), the rows set (``rows``,
-# one entry), the particles' apexes per row.
-class RobustAdmission(namedtuple("RobustAdmission", ["check", "ground", "controller", "row_of", "rows", "states"])):
+# A search's robust admission: the check, the map the planner sees (``drakeslip.terrain.Ground``), the controller
+# (``ControllerArrays``), and where the root's particles are (P, 3)
+class RobustAdmission(namedtuple("RobustAdmission", ["check", "ground", "controller", "root_states"])):
     __slots__ = ()
 
-    def admit(self, tree, node, slots):
+    def start(self, expansion_state, root):
+        """The admission's state at the start of a search run as Python: the flights of the compiled search's."""
+        return start_flights(self)
+
+    def admit(self, state, tree, node, slots):
         """``admit`` in a search run as Python: the compiled check."""
-        return robust_admit(self, tree, node, slots)
+        return robust_admit(self, state, tree, node, slots)
+
+
+# The particles' flights in a search: each node's row of ``states`` (-1: none), how many rows are set (``rows``, one
+# entry), the particles' apexes per row
+Flights = namedtuple("Flights", ["row_of", "rows", "states"])
 
 
 def no_check(ground, controller) -> RobustAdmission:
@@ -45,20 +52,22 @@ def no_check(ground, controller) -> RobustAdmission:
     heights.setflags(write=False)
     check = RobustCheck(0, 0, 1, NO_FAN, np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0),
                         Worlds(np.zeros((0, 6)), heights, np.zeros(0), 0.0, 0.0), 0.0, 0.0, 0.0, 0.0)
-    return RobustAdmission(check, ground, controller, np.full(CAPACITY, -1, np.int64), np.zeros(1, np.int64),
-                           np.empty((16, 0, 3)))
+    return RobustAdmission(check, ground, controller, np.zeros((0, 3)))
 
 
-def robust_admission(check: RobustCheck, states: np.ndarray, ground, controller) -> RobustAdmission:
-    """The admission of a search whose root's particles are at ``states`` (P, 3)."""
-    flights = np.empty((16,) + states.shape)
-    flights[0] = states
+@compiled(inline="always")
+def start_flights(admission):
+    """The flights at a search's start: the root's particles, where the check flies any (depth > 0)."""
+    states = np.empty((16,) + admission.root_states.shape)
     row_of = np.full(CAPACITY, -1, np.int64)
-    row_of[0] = 0
-    return RobustAdmission(check, ground, controller, row_of, np.ones(1, np.int64), flights)
+    rows = np.zeros(1, np.int64)
+    if admission.check.depth > 0:
+        copy_head(states, admission.root_states.reshape((1,) + admission.root_states.shape), 1)
+        row_of[0], rows[0] = 0, 1
+    return Flights(row_of, rows, states)
 
 
-@compiled()
+@compiled(inline="always")
 def aim_particles(check, states, foothold, ground, controller):
     """The leg angle each particle reaches, aiming at ``foothold`` from the apex it is told (its state plus its
     apex error) with its leg-angle error, inside +-1.5 rad."""
@@ -71,14 +80,15 @@ def aim_particles(check, states, foothold, ground, controller):
     return angles
 
 
-@compiled()
-def robust_admit(admission, tree, node, slots):
-    """``admit`` for a ``RobustAdmission``: (ADMITTED or REFUTED, hops flown, the admission with the node's
-    particles added when admitted)."""
-    check, row_of, states = admission.check, admission.row_of, admission.states
+@compiled(inline="always")
+def robust_admit(admission, state, tree, node, slots):
+    """``planners.core.best_first.admit`` for a ``RobustAdmission``: (ADMITTED or REFUTED, hops flown, the flights
+    (``state``) with the node's particles added when admitted)."""
+    flights = state
+    check, row_of, states = admission.check, flights.row_of, flights.states
     depth = tree.depth[node]
     if check.depth == 0 or depth > check.depth or (node < row_of.shape[0] and row_of[node] >= 0):
-        return ADMITTED, 0, admission
+        return ADMITTED, 0, flights
     here = states[row_of[tree.parent[node]]]
     foothold = tree.foothold[node]
     t0 = now()
@@ -89,21 +99,14 @@ def robust_admit(admission, tree, node, slots):
     slots[CONTROLLER] += t1 - t0
     slots[STEP_MAP] += now() - t1
     if not passed:
-        return REFUTED, hops, admission
+        return REFUTED, hops, flights
     if node >= row_of.shape[0]:
         wider = np.full(max(2 * row_of.shape[0], node + 1), -1, np.int64)
         copy_head(wider, row_of, row_of.shape[0])
         row_of = wider
-    rows = admission.rows[0]
+    rows = flights.rows[0]
     states = grown(states, rows + 1)
     copy_head(states[rows:], ends.reshape((1,) + ends.shape), 1)
     row_of[node] = rows
-    admission.rows[0] = rows + 1
-    return ADMITTED, hops, RobustAdmission(check, admission.ground, admission.controller, row_of, admission.rows,
-                                           states)
-
-
-@overload(admit)
-def _admit(admission, tree, node, slots):
-    if getattr(admission, "instance_class", None) is RobustAdmission:
-        return lambda admission, tree, node, slots: robust_admit(admission, tree, node, slots)
+    flights.rows[0] = rows + 1
+    return ADMITTED, hops, Flights(row_of, flights.rows, states)

@@ -10,13 +10,11 @@ from collections import namedtuple
 
 import numpy as np
 from numba import types
-from numba.extending import overload
 from numba.typed import Dict, List
 
 from drakeslip.compiled import compiled
 from drakeslip.fast_step import N_OUT, OUT_X, OUT_XDOT, OUT_Z
 
-from planners.core.best_first import STATEFUL, expand, start
 from planners.core.clock import CONTROLLER, MODEL, STEP_MAP, now
 from planners.core.grid import aim_candidates, children_of, fly, grid_candidates
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
@@ -35,11 +33,10 @@ WindowSettings = namedtuple("WindowSettings", ["n_cells", "anchor", "s0", "lengt
 SampledState = namedtuple("SampledState", ["slot_of", "start", "count", "n_order", "pos", "n_ready", "ready",
                                            "cand_x", "cand_theta", "cand_order", "used", "window_keys", "gates"])
 # LSTM-guided sampling's expansion: Step-space's (``GridExpansion``'s fields), the window, the model's arrays
-# (``ModelArrays``), the draws' generator, how many candidates are flown at a time (``width``); and in a search,
-# with the draws (``SampledSearch``)
+# (``ModelArrays``), the draws' generator, how many candidates are flown at a time (``width``); its state in a search
+# is the draws (``SampledState``)
 SampledExpansion = namedtuple("SampledExpansion", ["grid", "ground", "params", "controller", "reach", "scoring",
                                                    "window", "model", "rng", "width"])
-SampledSearch = namedtuple("SampledSearch", ["expansion", "state"])
 KEY_STRIDE = 1 << 20  # a (window start, bin under the body) pair's key: start * KEY_STRIDE + bin
 FLOAT_ROW = types.float64[::1]
 
@@ -195,14 +192,13 @@ def aim_next(e, state, slot, apex, x_l, theta, order, slots):
 
 
 @compiled()
-def expand_sampled(search, tree, size, node, slots):
-    """LSTM-guided sampling's expansion of ``node`` (see the module doc): (its children, the search's records)."""
-    e, state = search.expansion, search.state
+def expand_sampled(e, state, tree, size, node, slots):
+    """LSTM-guided sampling's expansion of ``node`` (``planners.core.best_first.expand``, see the module doc): its
+    children, and the draws (``state``) after."""
     grid = e.grid
     x, z, v = tree.apex[node, 0], tree.apex[node, 1], tree.apex[node, 2]
     if node not in state.slot_of:
         state = draw_candidates(e, state, node, x, z, v, slots)
-        search = SampledSearch(e, state)
     slot = state.slot_of[node]
     first, n = state.start[slot], state.count[slot]
     x_l, theta = state.cand_x[first:first + n], state.cand_theta[first:first + n]
@@ -233,19 +229,4 @@ def expand_sampled(search, tree, size, node, slots):
     children = children_of(x_l[idx], theta[idx], ok[idx], apexes[idx], calls, grid, e.scoring)
     more = state.pos[slot] < order.shape[0] or state.n_ready[slot] > 0
     return Children(children.angles, children.footholds, children.apexes, children.keys, children.ode_calls,
-                    children.beyond, more, children.goal), search
-
-
-STATEFUL.add(SampledExpansion)
-
-
-@overload(start)
-def _start(expansion, admission, root):
-    if getattr(expansion, "instance_class", None) is SampledExpansion:
-        return lambda expansion, admission, root: (SampledSearch(expansion, new_state(expansion.width)), admission)
-
-
-@overload(expand)
-def _expand(expansion, tree, size, node, slots):
-    if getattr(expansion, "instance_class", None) is SampledSearch:
-        return lambda expansion, tree, size, node, slots: expand_sampled(expansion, tree, size, node, slots)
+                    children.beyond, more, children.goal), state

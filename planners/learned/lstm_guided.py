@@ -191,8 +191,8 @@ class ModelSamplingExpansion:
         self.rng = np.random.default_rng(planner.seed)
         self.draws: dict = {}  # node -> its candidates, angles, weighted order and how far it has been used
 
-    def expand(self, tree, size, node, slots):
-        """(the node's children, this expansion)."""
+    def expand(self, state, tree, size, node, slots):
+        """(the node's children, the state: none, this expansion keeps its own)."""
         planner, problem, width = self.planner, self.problem, self.width
         apex = tuple(map(float, tree.apex[node]))
         if node not in self.draws:
@@ -221,7 +221,7 @@ class ModelSamplingExpansion:
         idx = np.sort(np.array(tried, dtype=np.int64))
         children = children_of(x_l[idx], theta[idx], ok[idx], apexes[idx], calls, self.grid.grid, self.grid.scoring)
         more = bool(d["pos"] < order.size or d["ready"])
-        return children._replace(more=more), self
+        return children._replace(more=more), state
 
 
 def warm_up_sampled(planner: LSTMGuidedPlanner) -> None:

@@ -71,8 +71,8 @@ class AngleExpansion:
         self.at_failure = ISOLATION_AT_FAILURE * units.length
         self.scoring = planner.cost_weights.scoring(problem)
 
-    def expand(self, tree, size, node, slots):
-        """(the node's children, this expansion)."""
+    def expand(self, state, tree, size, node, slots):
+        """(the node's children, the state: none, this expansion keeps its own)."""
         problem, edges = self.problem, self.edges
         angles = edges[:-1] + self.rng.uniform(0.0, 1.0, self.branching) * np.diff(edges)
         res = step_batch(tuple(map(float, tree.apex[node])), angles, problem.terrain, problem.params)
@@ -85,4 +85,4 @@ class AngleExpansion:
         apexes = np.stack([res.next_x, res.next_z, res.next_xdot], axis=1)[ok]
         footholds = res.touchdown_x[ok]
         return Children(angles[ok], footholds, apexes, child_costs(footholds, apexes, d, self.scoring),
-                        self.branching, beyond, False, NO_GOAL), self
+                        self.branching, beyond, False, NO_GOAL), state

@@ -5,7 +5,8 @@ from __future__ import annotations
 import numpy as np
 
 from planners.base import Budget, Problem
-from planners.core.best_first import ADMITTED, Limits, best_first, python_best_first
+from planners.core.best_first import ADMITTED, Limits, python_best_first
+from planners.core.searches import SEARCHES, compiled_search
 from planners.core.tree import NO_LIMIT
 from planners.search.tree import REEXPAND_PENALTY, STOPS, SearchResult, SearchTree
 
@@ -17,7 +18,7 @@ def search(problem: Problem, expansion, admission, n_sequences: int, budget: Bud
     limits = Limits(int(n_sequences), int(budget.max_nodes),
                     NO_LIMIT if budget.max_ode_calls is None else int(budget.max_ode_calls), float(problem.deadline),
                     REEXPAND_PENALTY * problem.units.length)
-    loop = best_first if hasattr(type(expansion), "_fields") else python_best_first   # a record: compiled
+    loop = compiled_search(expansion) if type(expansion) in SEARCHES else python_best_first
     found = loop(expansion, admission, np.array(problem.apex, dtype=np.float64), float(problem.target_x), limits)
     problem.timing.add(found.slots)
     return SearchResult(tree_of(problem.apex, found), int(found.ode_calls), int(found.expansions), STOPS[found.stop])
@@ -34,8 +35,8 @@ def tree_of(root_apex, found) -> SearchTree:
 class AdmitAll:
     """The admission of a search run as Python that checks no node."""
 
-    def admit(self, tree, node, slots):
-        return ADMITTED, 0, self
+    def admit(self, state, tree, node, slots):
+        return ADMITTED, 0, state
 
 
 ADMIT_ALL = AdmitAll()

@@ -28,7 +28,7 @@ from drakeslip.compiled import compiling
 
 from planners.base import Budget, Problem
 from planners.core.grid import GridExpansion
-from planners.core.pruned import Coreachable, PrunedExpansion, StageSettings
+from planners.core.pruned import Coreachable, MergeAdmission, PrunedExpansion, StageSettings
 from planners.search.energy_graph import CellGraph, Coreach, GraphTooLarge
 from planners.search.loop import search
 from planners.search.tree import SearchResult, SearchTree
@@ -62,4 +62,5 @@ def pruned_search(problem: Problem, grid: GridExpansion, max_nodes: int = MAX_NO
                           RISK_COST * units.length, float(graph.reach), float(graph.g), float(problem.target_x))
     grid = grid._replace(grid=grid.grid._replace(min_speed=MIN_SPEED * units.speed))   # the stage's floor
     with compiling():   # compiled at its first use in a process: most plans never reach this stage
-        return search(problem, PrunedExpansion(grid, stage, cells), None, 1, Budget(max_nodes=int(max_nodes)))
+        return search(problem, PrunedExpansion(grid, stage, cells), MergeAdmission(stage), 1,
+                      Budget(max_nodes=int(max_nodes)))

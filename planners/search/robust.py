@@ -42,7 +42,7 @@ from drakeslip.params import check_count
 from drakeslip.units import units_of
 
 from planners.core.particles import NO_FAN, Worlds, fly_particles
-from planners.core.robust import RobustAdmission, RobustCheck, aim_particles, robust_admission
+from planners.core.robust import RobustAdmission, RobustCheck, aim_particles
 
 
 LOOKAHEAD_ANGLES = 21  # leg angles tried from each particle's last apex (a fan across the friction cone)
@@ -181,7 +181,7 @@ class Robustness:
         """The robust admission of a search from ``apex`` on ``terrain`` for the hopper ``params``, its particles
         aiming with ``controller`` (``ControllerArrays``)."""
         particles = self.particles(apex, terrain, params)
-        return robust_admission(self.check(particles), particles.states, terrain.ground(), controller)
+        return RobustAdmission(self.check(particles), terrain.ground(), controller, particles.states)
 
 
 @dataclass

@@ -279,15 +279,15 @@ class PythonGridExpansion:
         self.planner, self.problem = planner, problem
         self.record = planner.expansion(problem, spacing)
 
-    def expand(self, tree, size, node, slots):
-        """(the node's children, this expansion)."""
+    def expand(self, state, tree, size, node, slots):
+        """(the node's children, the state: none, this expansion keeps its own)."""
         apex, record, problem = tree.apex[node], self.record, self.problem
         x_l = grid_candidates(*map(float, apex), record.ground, record.params, record.reach, record.grid)
         theta = aim_candidates(*map(float, apex), x_l, record.ground, record.controller, record.grid.edge_margin,
                                record.grid.max_angle)
         ok, apexes = self.planner.simulate(problem, apex, x_l, theta)
         calls = int(np.count_nonzero(~np.isnan(theta)))
-        return children_of(x_l, theta, ok, apexes, calls, record.grid, record.scoring), self
+        return children_of(x_l, theta, ok, apexes, calls, record.grid, record.scoring), state
 
 
 @functools.cache
