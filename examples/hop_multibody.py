@@ -42,7 +42,8 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
     from drakeslip.multibody.controller import HopperController
     from drakeslip.multibody.diagram import add_robot_and_terrain
     from drakeslip.multibody.robot import RobotParams
-    from planners.drake_system import EnergyPump, FootstepPlannerSystem
+    from drakeslip.multibody.pump import EnergyPump
+    from planners.drake_system import FootstepPlannerSystem
 
     robot = RobotParams()
     builder = DiagramBuilder()
@@ -70,7 +71,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import EventStatus
 
-    from drakeslip.multibody.controller import APEXES, DESCENT, RETRACT
+    from drakeslip.multibody.controller import RETRACT, Phase
 
     diagram, plant, controller, planner_system = build(planner, two_ditches(), goal_x, meshcat)
     simulator = Simulator(diagram)
@@ -79,7 +80,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     q = np.array([start[0], start[1], 0.0, 0.0, controller.params.rest_extension - RETRACT])
     plant.SetPositions(plant_context, q)
     plant.SetVelocities(plant_context, np.array([start[2], 0.0, 0.0, 0.0, 0.0]))
-    controller.GetMyMutableContextFromRoot(context).SetDiscreteState(controller.initial_state(DESCENT))
+    controller.GetMyMutableContextFromRoot(context).SetDiscreteState(controller.initial_state(Phase.DESCENT))
     state = plant.get_state_output_port()
 
     def past_goal(root_context):
@@ -90,7 +91,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     if meshcat is not None:
         meshcat.StartRecording()
     simulator.AdvanceTo(seconds)
-    apexes = controller.GetMyContextFromRoot(context).get_discrete_state(0).get_value()[APEXES]
+    apexes = controller.control_state_of(controller.GetMyContextFromRoot(context)).apexes
     return planner_system, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
 
 

@@ -11,10 +11,9 @@ plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.H
 """
 from __future__ import annotations
 
-import math
 import time
 import zlib
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, replace
 
 import numpy as np
 from pydrake.common.value import AbstractValue
@@ -22,11 +21,11 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import LeafSystem
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.multibody.controller import (CLEARANCE, STANCE_TIME, FootholdCommand, neutral_angle,
-                                            touchdown_angle)
+from drakeslip.multibody.controller import FootholdCommand, touchdown_angle
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HopMonitor
+from drakeslip.multibody.pump import PUMPS_WITHOUT_PLAN, EnergyPump
 from drakeslip.multibody.robot import RobotParams, StateLayout
 from drakeslip.noise import NoiseProfile
 from drakeslip.params import check_number
@@ -36,54 +35,6 @@ from drakeslip.units import units_of
 
 RISING = 0.2       # [m/s] a body rising faster than this is in flight toward an apex (not jostled by its leg)
 GOAL_SIGMAS = 5.0   # under state noise the planner aims this many standard deviations of x past the goal
-PUMP_RISE = 0.15    # [m] apex height a pumping hop adds (``EnergyPump``), in the paper's hopper's lengths
-PUMPS_WITHOUT_PLAN = 3   # pumping hops in a row from apexes with no plan before the robot gives up
-LEVEL = 0.02        # [m] ground this close to the height under the hip is level for a hop in place, in the paper's
-                    # hopper's lengths (its terrains' steps are 5 cm or more)
-
-
-@dataclass(frozen=True)
-class EnergyPump:
-    """The robot's use of its leg actuator beyond the template's: the template has none, so every apex of a plan
-    keeps the energy of the apex it starts from, and from a low start before a high step its only plans skim over
-    the step with the body less than a leg length above it. A robot's leg, swung through under the hip in flight,
-    meets the ground there. When a plan passes an apex from which the foot, held at the neutral angle through the
-    apex (``neutral_angle``), is less than the controller's ``CLEARANCE`` above the ground under it or the ground
-    under the hip, the robot flies the plan's first hop and aims its stance at an apex ``rise`` [m] higher than
-    the one it left; the next apex's plan starts from there. From an apex with no plan (a start too low for the
-    template to climb anything ahead, say) it hops on the spot's level ground instead, at its speed by Raibert's
-    foot placement, to an apex ``rise`` higher where the ground is ``level`` [m] for the hop (``room``), up to
-    PUMPS_WITHOUT_PLAN times in a row. ``reach`` [m]: hip to the foot's contact at the leg's rest length."""
-
-    reach: float
-    rise: float
-    level: float
-
-    @classmethod
-    def for_robot(cls, robot: RobotParams, params: SlipParams) -> "EnergyPump":
-        """``robot``'s pump when it plans for the template ``params``: its leg's reach, PUMP_RISE and LEVEL in
-        the template's lengths."""
-        length = units_of(params).length
-        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length)
-
-    def needed(self, apexes, terrain: Terrain) -> bool:
-        """Whether any of the planned ``apexes`` ((x, z, xdot) rows) is one the leg cannot swing through."""
-        for x, z, xdot in apexes:
-            angle = neutral_angle(xdot, self.reach)
-            foot_x = x + self.reach * math.sin(angle)
-            ground = max(float(terrain.height_at(x)), float(terrain.height_at(foot_x)))
-            if z - self.reach * math.cos(angle) - ground < CLEARANCE:
-                return True
-        return False
-
-    def room(self, apex: ApexState, terrain: Terrain, gravity: float) -> bool:
-        """Whether a hop from ``apex`` at its speed to an apex ``rise`` higher lands and lifts off on level ground:
-        the ground from a leg behind the hip to a leg past that apex within ``level`` of the ground under the hip."""
-        ground = float(terrain.height_at(apex.x))
-        fall = max(apex.z - ground - self.reach, 0.0)
-        hop = apex.xdot * (math.sqrt(2 * fall / gravity) + STANCE_TIME + math.sqrt(2 * (fall + self.rise) / gravity))
-        xs = np.arange(apex.x - self.reach, apex.x + hop + self.reach, 0.5 * terrain.cell)
-        return bool(np.all(np.abs(terrain.height_at(xs) - ground) <= self.level))
 
 
 class FootstepPlannerSystem(LeafSystem):

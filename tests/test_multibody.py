@@ -38,6 +38,32 @@ def test_the_model_file_takes_the_parameters():
         RobotParams(foot_radius=0.2)
 
 
+def test_the_controller_and_the_monitor_take_the_robots_geometry_from_its_model():
+    """The upper leg's centre of mass and pitch inertia and the body box as Drake parses the model, and the stance
+    time in the hopper's time units (the paper's hopper's to the bit)."""
+    from pydrake.geometry import Role
+
+    from drakeslip.multibody.controller import STANCE_TIME, stance_time
+    from drakeslip.multibody.diagram import build_diagram
+    from drakeslip.multibody.failures import HopMonitor
+    from drakeslip.multibody.robot import model_geometry
+
+    hd = build_diagram(ds.Terrain.flat(), RobotParams())
+    leg, body = hd.plant.GetBodyByName("leg"), hd.plant.GetBodyByName("body")
+    com = leg.default_com()
+    inertia = leg.default_spatial_inertia().Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
+    inspector = hd.scene_graph.model_inspector()
+    (box,) = [inspector.GetShape(g) for g in inspector.GetGeometries(hd.plant.GetBodyFrameIdOrThrow(body.index()),
+                                                                     Role.kIllustration)]
+    geometry = model_geometry(RobotParams())
+    assert (geometry.leg_com, geometry.leg_inertia) == pytest.approx((-com[2], inertia[1, 1]), rel=1e-12)
+    assert geometry.body_half == pytest.approx((box.width() / 2, box.height() / 2), rel=1e-12)
+    assert (hd.controller.leg_com, hd.controller.leg_inertia) == (geometry.leg_com, geometry.leg_inertia)
+    assert HopMonitor(hd, ds.Terrain.flat(), hd.diagram.CreateDefaultContext(), None).body_half == geometry.body_half
+    assert stance_time(ds.SlipParams()) == STANCE_TIME and hd.controller.stance_time == STANCE_TIME
+    assert stance_time(ds.SlipParams(leg_length=1.0)) == pytest.approx(STANCE_TIME * np.sqrt(2))
+
+
 def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
     angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, 0.47, 0.03, 9.81)
     t = np.sqrt(2 * (0.8 - 0.47 * np.cos(angle) - 0.03) / 9.81)
@@ -161,9 +187,10 @@ def test_after_liftoff_the_foot_rises_where_it_stood():
 
 
 def test_the_pump_asks_for_energy_where_the_foot_cannot_swing_through_under_the_apex():
-    from planners.drake_system import EnergyPump
+    from drakeslip.multibody.controller import STANCE_TIME
+    from drakeslip.multibody.pump import EnergyPump
 
-    pump, flat = EnergyPump(0.5, 0.15, 0.02), ds.Terrain.flat()
+    pump, flat = EnergyPump(0.5, 0.15, 0.02, STANCE_TIME), ds.Terrain.flat()
     assert pump.needed([(0.0, 0.52, 0.5)], flat)            # a slow apex a leg length up: the foot scrapes
     assert not pump.needed([(0.0, 0.6, 0.5)], flat)
     assert not pump.needed([(0.0, 0.5, 3.3)], flat)          # a fast skim: the leg waits far forward
