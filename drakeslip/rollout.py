@@ -51,6 +51,7 @@ class Rollout:
         return float(self.end_state[0]) if self.end_state is not None else math.nan
 
 
+# the commands, their errors and each backend's options as keywords with defaults: one entry for every backend
 def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, footholds: Sequence[float] | None = None,
             leg_angles: Sequence[float] | Callable | None = None, controller=None, backend: str = "drake",
             max_hops: int | None = None, angle_errors=None, apex_errors=None, sensed_terrain: Terrain | None = None,
@@ -78,6 +79,7 @@ def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, foothol
                     max_time=max_time, model=model)[0]
 
 
+# ``rollout``'s keywords, batched
 def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, leg_angles=None, controller=None,
              backend: str = "fast", max_hops: int | None = None, angle_errors=None, apex_errors=None,
              sensed_terrain: Terrain | None = None, log: bool = False, integrator=None,
@@ -194,6 +196,7 @@ def _fast(starts, terrain, params, command: _Commands, hops) -> list[Rollout]:
     return records
 
 
+# one draw of ``rollouts``: its index, start and the options this backend takes
 def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_time, known) -> Rollout:
     from drakeslip.multibody.execute import execute
     from drakeslip.multibody.robot import RobotParams
@@ -214,6 +217,7 @@ def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_
                    None if failure is None else failure.state, hops if log else None)
 
 
+# one draw of ``rollouts``: its index, start and the options this backend takes
 def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrator, max_time) -> Rollout:
     from drakeslip.simulation import simulate
 

@@ -74,7 +74,7 @@ def main(argv=None) -> int:
                          "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
     ap.add_argument("--no-pump", action="store_true",
                     help="ablation, multibody backend: the robot does not raise its apex with its leg actuator "
-                         "where a plan skims the ground (planners.drake_system.EnergyPump)")
+                         "where a plan skims the ground (drakeslip.multibody.pump.EnergyPump)")
     ap.add_argument("--mlp-only", action="store_true",
                     help="ablation: the controller without its Newton polish (the paper's MLP controller)")
     ap.add_argument("--baseline", default=None,

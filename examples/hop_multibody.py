@@ -42,15 +42,17 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
     from drakeslip import SlipParams
     from drakeslip.multibody.controller import HopperController
     from drakeslip.multibody.diagram import add_robot_and_terrain
+    from drakeslip.multibody.pump import EnergyPump
     from drakeslip.multibody.robot import RobotParams
-    from planners.drake_system import EnergyPump, FootstepPlannerSystem
+    from planners.drake_system import FootstepPlannerSystem
+    from planners.replanning import Replanner
 
     robot = RobotParams()
     builder = DiagramBuilder()
     plant, scene_graph, _, layout = add_robot_and_terrain(builder, terrain, robot)
     controller = builder.AddSystem(HopperController(robot, layout))
-    planner_system = builder.AddSystem(FootstepPlannerSystem(planner, terrain, goal_x, SlipParams(), layout,
-                                                             robot.time_step, face_keep_out=robot.face_keep_out,
+    replanner = Replanner(planner, terrain, goal_x, SlipParams(), face_keep_out=robot.face_keep_out)
+    planner_system = builder.AddSystem(FootstepPlannerSystem(replanner, layout, time_step=robot.time_step,
                                                              pump=EnergyPump.for_robot(robot, SlipParams())))
     builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))
     builder.Connect(plant.get_state_output_port(), controller.GetInputPort("state"))
@@ -65,13 +67,13 @@ def build(planner: str, terrain, goal_x: float, meshcat=None):
 
 def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.0, meshcat=None):
     """Simulate the hand-built diagram from the apex ``start`` until the body's x passes ``goal_x`` (or
-    ``seconds``); returns (the planner system, the final body x, the simulated time, the apexes the controller
-    counted)."""
+    ``seconds``); returns (the planner system's records, one per plan, the final body x, the simulated time, the
+    apexes the controller counted)."""
     import numpy as np
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import EventStatus
 
-    from drakeslip.multibody.controller import APEXES, DESCENT, RETRACT
+    from drakeslip.multibody.controller import RETRACT, Phase
 
     diagram, plant, controller, planner_system = build(planner, two_ditches(), goal_x, meshcat)
     simulator = Simulator(diagram)
@@ -80,7 +82,7 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     q = np.array([start[0], start[1], 0.0, 0.0, controller.params.rest_extension - RETRACT])
     plant.SetPositions(plant_context, q)
     plant.SetVelocities(plant_context, np.array([start[2], 0.0, 0.0, 0.0, 0.0]))
-    controller.GetMyMutableContextFromRoot(context).SetDiscreteState(controller.initial_state(DESCENT))
+    controller.GetMyMutableContextFromRoot(context).SetDiscreteState(controller.initial_state(Phase.DESCENT))
     state = plant.get_state_output_port()
 
     def past_goal(root_context):
@@ -91,8 +93,9 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     if meshcat is not None:
         meshcat.StartRecording()
     simulator.AdvanceTo(seconds)
-    apexes = controller.GetMyContextFromRoot(context).get_discrete_state(0).get_value()[APEXES]
-    return planner_system, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
+    apexes = controller.control_state_of(controller.GetMyContextFromRoot(context)).apexes
+    records = planner_system.records(planner_system.GetMyContextFromRoot(context))
+    return records, float(state.Eval(plant_context)[0]), context.get_time(), int(apexes)
 
 
 @cli_physics.reports_crashes
@@ -115,8 +118,8 @@ def main(argv=None) -> int:
         from pydrake.geometry import Meshcat
 
         meshcat = Meshcat()
-    planner_system, x, seconds, _ = run(args.planner, args.goal, meshcat=meshcat)
-    for record in planner_system.records:
+    records, x, seconds, _ = run(args.planner, args.goal, meshcat=meshcat)
+    for record in records:
         print(f"apex x={record['apex'][0]:.2f} z={record['apex'][1]:.2f} xdot={record['apex'][2]:.2f}: "
               f"{'plan' if record['success'] else 'no plan'}, next footholds {record['footholds'][:3]}")
     print(f"body at x={x:.2f} m after {seconds:.1f} s simulated; goal {args.goal} m")

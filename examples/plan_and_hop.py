@@ -34,7 +34,8 @@ from drakeslip import cli_physics
 from drakeslip.bounds import FRICTION, POSITION, SPEED
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite_draw import DEMO_COURSE, DEMO_HEIGHT, DEMO_SPEED
-from planners.closed_loop import EXECUTED_PER_PLAN, executed_plans
+from planners.closed_loop import executed_plans
+from planners.replanning import EXECUTED_PER_PLAN
 from drakeslip.noise import PROFILES, describe
 from planners.registry import check_label, loop_settings
 
@@ -102,7 +103,7 @@ def main(argv=None) -> int:
     executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
     config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
     if args.backend == "multibody":
-        return hop_robot(planner, terrain, apex, params, config, executed, args)
+        return hop_robot(planner, terrain, apex, params, config, args)
     result = run_case(planner, controller, case, args.goal, params, config)
 
     for i, p in enumerate(result["plans"]):
@@ -121,7 +122,7 @@ def main(argv=None) -> int:
     return cli.OK if result["success"] else cli.FAILED
 
 
-def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
+def hop_robot(planner, terrain, apex, params, config, args) -> int:
     """The multibody robot in its closed-loop Diagram: print the plans, draw the run, write the replay."""
     from types import SimpleNamespace
 
@@ -132,8 +133,7 @@ def hop_robot(planner, terrain, apex, params, config, executed, args) -> int:
     template = fitted_template()
     template = params if template is None else template.with_friction(params.friction)
     result = run_closed_loop(planner, SimpleNamespace(id="demo", terrain=terrain, apex=apex), args.goal, template,
-                             noise=config.noise, seed=config.seed, map_filter=config.map_filter,
-                             replan_every=executed, trajectory=True)
+                             config, trajectory=True)
     log = result["log"]
     for i, p in enumerate(result["plans"]):
         print(f"plan {i}: from x={p['apex'][0]:.2f}: {' '.join(f'{x:.2f}' for x in p['footholds']) or p['message']}")

@@ -99,7 +99,7 @@ def main(argv=None) -> int:
                 "hopper": (record.hopper or hopper_for(record.params)).to_record(), "provenance": provenance()}
     if args.backend == "multibody":   # the robot each draw ran: built around the draw's hopper
         from drakeslip.multibody.robot import RobotParams
-        from planners.closed_loop import robot_record
+        from planners.replanning import robot_record
 
         document["robot"] = robot_record(RobotParams(slip=record.params))
     if args.drake:

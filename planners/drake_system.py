@@ -1,147 +1,57 @@
-"""A footstep planner as a Drake ``LeafSystem``, and the closed loop on the multibody hopper as one Diagram.
+"""The receding-horizon loop on the multibody robot: a footstep planner as a Drake ``LeafSystem``, and one case as
+one closed-loop Diagram (plant, planner system, controller).
 
-``FootstepPlannerSystem`` wraps any registered planner label (or planner object): at each flight apex of the
-robot (the body's vertical velocity turning from up to down) it takes the state estimate (the true state plus the
-noise profile's apex errors when asked), perceives the terrain window ahead of the body (with the profile's
-height-map errors and the robot's map filter when asked), plans to the goal for the template ``params`` with no
-foothold just before a step's face (``RobotParams.face_keep_out`` in ``build_closed_loop``), and outputs the
-plan's footholds as a ``FootholdCommand`` for ``drakeslip.multibody.controller.HopperController``. Its ports:
-``state`` in (the plant's state vector), ``command`` out. A user wires it into their own diagram as
-``examples/hop_multibody.py`` shows; ``build_closed_loop`` and ``run_closed_loop`` do it for one case.
+``FootstepPlannerSystem`` makes the loop's planning call (``planners.replanning.Replanner``: the apex told, the map
+sensed, the goal aimed at) at the robot's flight apexes (the body's vertical velocity turning from up to down), at
+every ``replan_every``-th one, and outputs the plan's footholds as a ``FootholdCommand`` for
+``drakeslip.multibody.controller.HopperController``, with the energy the robot pumps where the template cannot
+(``drakeslip.multibody.pump.EnergyPump``). A user wires it into their own diagram as ``examples/hop_multibody.py``
+shows; ``build_closed_loop`` and ``run_closed_loop`` do it for one case, as ``planners.closed_loop.run_case`` does on
+its ``"multibody"`` backend.
 """
 from __future__ import annotations
 
-import math
+import copy
 import time
-import zlib
 from dataclasses import asdict, dataclass, replace
 
 import numpy as np
+from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 from pydrake.systems.analysis import Simulator
-from pydrake.systems.framework import LeafSystem
+from pydrake.systems.framework import EventStatus, LeafSystem
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.multibody.controller import (CLEARANCE, STANCE_TIME, FootholdCommand, neutral_angle,
-                                            touchdown_angle)
+from drakeslip.multibody.controller import FootholdCommand, touchdown_angle
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HopMonitor
+from drakeslip.multibody.pump import EnergyPump
 from drakeslip.multibody.robot import RobotParams, StateLayout
-from drakeslip.noise import NoiseProfile
-from drakeslip.params import check_number
 from drakeslip.simulation import advance
-from drakeslip.terrain import Terrain
-from drakeslip.units import units_of
+from planners.replanning import ClosedLoopConfig, Replanner, case_result, case_seed, drawn_hopper
 
 RISING = 0.2       # [m/s] a body rising faster than this is in flight toward an apex (not jostled by its leg)
-GOAL_SIGMAS = 5.0   # under state noise the planner aims this many standard deviations of x past the goal
-PUMP_RISE = 0.15    # [m] apex height a pumping hop adds (``EnergyPump``), in the paper's hopper's lengths
-PUMPS_WITHOUT_PLAN = 3   # pumping hops in a row from apexes with no plan before the robot gives up
-LEVEL = 0.02        # [m] ground this close to the height under the hip is level for a hop in place, in the paper's
-                    # hopper's lengths (its terrains' steps are 5 cm or more)
+# The robot's loop as ``run_closed_loop`` runs it unless told otherwise: noiseless, replanning at every apex.
+REPLAN_AT_EVERY_APEX = ClosedLoopConfig(backend="multibody", executed_per_plan=1)
+
+# The planner system's discrete state: whether the body is rising in flight (1/0), apexes since the last plan.
+ApexWatch = namedview("ApexWatch", ["rising", "apexes_since_plan"])
 
 
 @dataclass(frozen=True)
-class EnergyPump:
-    """The robot's use of its leg actuator beyond the template's: the template has none, so every apex of a plan
-    keeps the energy of the apex it starts from, and from a low start before a high step its only plans skim over
-    the step with the body less than a leg length above it. A robot's leg, swung through under the hip in flight,
-    meets the ground there. When a plan passes an apex from which the foot, held at the neutral angle through the
-    apex (``neutral_angle``), is less than the controller's ``CLEARANCE`` above the ground under it or the ground
-    under the hip, the robot flies the plan's first hop and aims its stance at an apex ``rise`` [m] higher than
-    the one it left; the next apex's plan starts from there. From an apex with no plan (a start too low for the
-    template to climb anything ahead, say) it hops on the spot's level ground instead, at its speed by Raibert's
-    foot placement, to an apex ``rise`` higher where the ground is ``level`` [m] for the hop (``room``), up to
-    PUMPS_WITHOUT_PLAN times in a row. ``reach`` [m]: hip to the foot's contact at the leg's rest length."""
+class PlanningLog:
+    """What the planner system has done, kept in its Context: ``rng``, the generator of the next planning call's
+    noise draws, and ``records``, one record per planning call so far. Never changed in place (a planning call
+    draws from a copy of ``rng`` and makes a new log), so the copies of a Context that Drake makes may share it."""
 
-    reach: float
-    rise: float
-    level: float
+    rng: np.random.Generator
+    records: tuple = ()
 
-    @classmethod
-    def for_robot(cls, robot: RobotParams, params: SlipParams) -> "EnergyPump":
-        """``robot``'s pump when it plans for the template ``params``: its leg's reach, PUMP_RISE and LEVEL in
-        the template's lengths."""
-        length = units_of(params).length
-        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length)
+    def __deepcopy__(self, memo):
+        return self
 
-    def needed(self, apexes, terrain: Terrain) -> bool:
-        """Whether any of the planned ``apexes`` ((x, z, xdot) rows) is one the leg cannot swing through."""
-        for x, z, xdot in apexes:
-            angle = neutral_angle(xdot, self.reach)
-            foot_x = x + self.reach * math.sin(angle)
-            ground = max(float(terrain.height_at(x)), float(terrain.height_at(foot_x)))
-            if z - self.reach * math.cos(angle) - ground < CLEARANCE:
-                return True
-        return False
-
-    def room(self, apex: ApexState, terrain: Terrain, gravity: float) -> bool:
-        """Whether a hop from ``apex`` at its speed to an apex ``rise`` higher lands and lifts off on level ground:
-        the ground from a leg behind the hip to a leg past that apex within ``level`` of the ground under the hip."""
-        ground = float(terrain.height_at(apex.x))
-        fall = max(apex.z - ground - self.reach, 0.0)
-        hop = apex.xdot * (math.sqrt(2 * fall / gravity) + STANCE_TIME + math.sqrt(2 * (fall + self.rise) / gravity))
-        xs = np.arange(apex.x - self.reach, apex.x + hop + self.reach, 0.5 * terrain.cell)
-        return bool(np.all(np.abs(terrain.height_at(xs) - ground) <= self.level))
-
-
-class FootstepPlannerSystem(LeafSystem):
-    """Input ``state`` (plant state, read through ``layout``); output ``command`` (abstract FootholdCommand).
-
-    Parameters: ``planner`` (a label for ``planners.make`` or an object with ``plan``), ``terrain`` (the world
-    it perceives), ``goal_x``, ``params`` (the template it plans for), ``layout`` (the robot in the plant),
-    ``time_step`` (how often it checks for an apex), ``noise`` and ``seed`` (state and perception errors drawn
-    at each apex), ``map_filter`` (the robot's median filter on its sensed map), ``face_keep_out`` (how far
-    before a step's face [m] it places no foothold: the planner plans on the sensed map less those footholds,
-    ``Terrain.without_footholds_before_rises``; the command keeps the sensed map), ``pump`` (an ``EnergyPump``:
-    when the robot raises its energy beyond the template's; None: never). Abstract state: the command and
-    the number of plans made; ``records`` lists one summary per planning call of the latest run."""
-
-    def __init__(self, planner, terrain: Terrain, goal_x: float, params: SlipParams, layout: StateLayout,
-                 time_step: float = 1e-3, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
-                 replan_every: int = 1, face_keep_out: float = 0.0, pump: EnergyPump | None = None):
-        super().__init__()
-        if isinstance(planner, str):
-            from planners.registry import make
-
-            planner = make(planner)
-        self.planner, self.terrain, self.goal_x, self.params = planner, terrain, float(goal_x), params
-        self.noise, self.map_filter, self.replan_every = noise or NoiseProfile(), map_filter, int(replan_every)
-        self.face_keep_out = check_number(face_keep_out, "FootstepPlannerSystem face_keep_out")
-        self.pump = pump
-        self.rng = np.random.default_rng(seed)
-        self._z, self._vz = layout.q[0:2], layout.v[0:2]
-        self._q, self._v = list(layout.q), list(layout.v)
-        self.records: list = []
-        self.DeclareVectorInputPort("state", max(layout.v) + 1)
-        self._command = self.DeclareAbstractState(AbstractValue.Make(FootholdCommand((), terrain, None, -1)))
-        self._rising = self.DeclareDiscreteState(2)   # rising in flight (1/0); apexes since the last plan
-        self.DeclarePeriodicUnrestrictedUpdateEvent(time_step, 0.0, self._update)
-        self.DeclareAbstractOutputPort("command", lambda: AbstractValue.Make(FootholdCommand((), terrain, None, -1)),
-                                       self._output, prerequisites_of_calc={self.all_state_ticket()})
-
-    def _output(self, context, output):
-        output.set_value(context.get_abstract_state(self._command).get_value())
-
-    def _update(self, context, state):
-        full = self.get_input_port(0).Eval(context)
-        q, v = full[self._q], full[self._v]
-        rising = state.get_mutable_discrete_state(self._rising).get_mutable_value()
-        command = context.get_abstract_state(self._command).get_value()
-        at_apex = rising[0] > 0 and v[1] <= 0.0
-        rising[0] = 1.0 if v[1] > RISING else (rising[0] if v[1] > 0.0 else 0.0)
-        if command.stamp >= 0:
-            if not at_apex:
-                return
-            rising[1] += 1.0
-            if rising[1] < self.replan_every and command.footholds:
-                return
-        rising[1] = 0.0
-        apex = ApexState(float(q[0]), float(q[1]), float(v[0]))
-        state.get_mutable_abstract_state(self._command).set_value(self.plan(apex, command.stamp + 1))
-
-    def _pumps_without_plan(self) -> int:
+    def pumps_without_plan(self) -> int:
         """Pumping hops in a row, up to now, from apexes with no plan."""
         count = 0
         for record in reversed(self.records):
@@ -150,89 +60,155 @@ class FootstepPlannerSystem(LeafSystem):
             count += 1
         return count
 
-    def plan(self, apex: ApexState, stamp: int) -> FootholdCommand:
-        """Plan from the true ``apex`` as the robot estimates and perceives it; the command numbered ``stamp``."""
-        noise = self.noise
-        errors = np.zeros(3) if noise.silent else noise.apex_errors(self.rng, 1)[0]
-        seen = ApexState(*(np.asarray(apex) + errors))
-        window = self.terrain.perceived(seen.x, *units_of(self.params).window)
-        sensed = window if noise.silent else noise.perceived(window, self.rng, self.map_filter)
-        aim_x = self.goal_x + GOAL_SIGMAS * noise.apex[0]
-        try:
-            plan = self.planner.plan(seen, sensed.without_footholds_before_rises(self.face_keep_out), aim_x,
-                                     self.params)
-            record = plan.summary()
-        except ValueError as refusal:   # a noisy apex below the ground it sees
-            record = {"success": False, "message": str(refusal), "ode_calls": 0, "t_plan_s": 0.0,
-                      "nodes_expanded": 0, "target_x": self.goal_x, "footholds": []}
-        record.update(apex=list(apex), stamp=stamp)
-        if not noise.silent:
-            record["seen_apex"] = list(seen)
-        footholds = tuple(record["footholds"]) if record["success"] else ()
-        g = self.params.gravity
-        if self.pump is None:
-            pump = False
-        elif record["success"]:
-            pump = self.pump.needed(plan.apexes, sensed)
-        else:
-            pump = self._pumps_without_plan() < PUMPS_WITHOUT_PLAN and self.pump.room(seen, sensed, g)
+
+class FootstepPlannerSystem(LeafSystem):
+    """The loop's planner at the robot's apexes (see the module doc).
+
+    Input port
+      state: the plant's state vector, read through ``layout``.
+    Output port
+      command: abstract ``FootholdCommand`` (stamp -1 before the first plan; each plan's stamp is the last's + 1).
+    State
+      discrete (``ApexWatch``): rising, apexes_since_plan.
+      abstract: the command; the ``PlanningLog`` (the noise generator, seeded by ``seed``, and the records).
+    Parameters
+      ``replanner`` (the planner, the world, the goal, the template, the noise profile, the map filter and the face
+      keep-out: ``planners.replanning.Replanner``), ``layout`` (the robot in the plant), ``time_step`` (how often
+      it checks for an apex), ``seed``, ``replan_every`` (plan at every k-th apex, and at any apex past the last
+      foothold), ``pump`` (an ``EnergyPump``: when the robot raises its energy beyond the template's; None:
+      never). Everything that changes lives in the Context, so one system can be simulated in many contexts.
+    """
+
+    def __init__(self, replanner: Replanner, layout: StateLayout, *, time_step: float = 1e-3, seed: int = 0,
+                 replan_every: int = 1, pump: EnergyPump | None = None):
+        super().__init__()
+        self.replanner, self.replan_every, self.pump = replanner, int(replan_every), pump
+        self._q, self._v = list(layout.q), list(layout.v)
+        self.DeclareVectorInputPort("state", max(layout.v) + 1)
+        no_command = FootholdCommand((), replanner.terrain, None, -1)
+        self._command = self.DeclareAbstractState(AbstractValue.Make(no_command))
+        self._log = self.DeclareAbstractState(AbstractValue.Make(PlanningLog(np.random.default_rng(seed))))
+        self._watch = self.DeclareDiscreteState(len(ApexWatch.get_fields()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(time_step, 0.0, self._update)
+        self.DeclareAbstractOutputPort("command", lambda: AbstractValue.Make(no_command), self._output,
+                                       prerequisites_of_calc={self.all_state_ticket()})
+
+    def command(self, context) -> FootholdCommand:
+        """The command in the system's ``context``."""
+        return context.get_abstract_state(self._command).get_value()
+
+    def records(self, context) -> tuple:
+        """One record per planning call made in the system's ``context``."""
+        return context.get_abstract_state(self._log).get_value().records
+
+    def start(self, context, apex: ApexState) -> FootholdCommand:
+        """Plan from ``apex`` before a run starts there (the command numbered 0) into the system's ``context``,
+        so that the leg starts aimed at the first foothold; returns the command."""
+        command, log = self._plan(apex, 0, context.get_abstract_state(self._log).get_value())
+        context.SetAbstractState(self._command, command)
+        context.SetAbstractState(self._log, log)
+        return command
+
+    def _output(self, context, output):
+        output.set_value(self.command(context))
+
+    def _update(self, context, state):
+        full = self.get_input_port(0).Eval(context)
+        q, v = full[self._q], full[self._v]
+        watch = ApexWatch(state.get_mutable_discrete_state(self._watch).get_mutable_value())
+        command = self.command(context)
+        at_apex = watch.rising > 0 and v[1] <= 0.0
+        watch.rising = 1.0 if v[1] > RISING else (watch.rising if v[1] > 0.0 else 0.0)
+        if command.stamp >= 0:
+            if not at_apex:
+                return
+            watch.apexes_since_plan += 1.0
+            if watch.apexes_since_plan < self.replan_every and command.footholds:
+                return
+        watch.apexes_since_plan = 0.0
+        apex = ApexState(float(q[0]), float(q[1]), float(v[0]))
+        command, log = self._plan(apex, command.stamp + 1, context.get_abstract_state(self._log).get_value())
+        state.get_mutable_abstract_state(self._command).set_value(command)
+        state.get_mutable_abstract_state(self._log).set_value(log)
+
+    def _plan(self, apex: ApexState, stamp: int, log: PlanningLog) -> tuple:
+        """(the command numbered ``stamp``, the log after it): plan from the true ``apex`` as the robot estimates
+        and perceives it, its noise drawn from a copy of ``log``'s generator (the apex's error, then the map's)."""
+        noise, params = self.replanner.noise, self.replanner.params
+        rng = copy.deepcopy(log.rng)
+        error = None if noise.silent else noise.apex_errors(rng, 1)[0]
+        call = self.replanner.plan(apex, error, rng)
+        record, seen = call.record, call.seen
+        record["stamp"] = stamp
+        success = record["success"]
+        pump = self.pump is not None and self.pump.wanted(call.plan.apexes if success else None, seen, call.sensed,
+                                                          params.gravity, log.pumps_without_plan())
         # energy None: the controller keeps each apex's energy, as the template the plan was made for does
-        energy = g * (seen.z + self.pump.rise) + 0.5 * seen.xdot ** 2 if pump else None
+        energy = self.pump.energy(seen, params.gravity) if pump else None
         if pump:
             record["pumped"] = self.pump.rise
-        self.records.append(record)
-        errors_told = (tuple(float(e) for e in errors),)
-        return FootholdCommand(footholds, sensed, energy, stamp, seen.xdot if pump else 0.0, errors_told)
+        errors_told = (tuple(float(e) for e in (np.zeros(3) if error is None else error)),)
+        command = FootholdCommand(tuple(record["footholds"]) if success else (), call.sensed, energy, stamp,
+                                  seen.xdot if pump else 0.0, errors_told)
+        return command, PlanningLog(rng, log.records + (record,))
 
 
-def build_closed_loop(planner, terrain: Terrain, goal_x: float, params: SlipParams, robot: RobotParams | None = None,
-                      *, noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1,
-                      replan_every: int = 1, inject_energy: bool = True, meshcat=None,
-                      known: RobotParams | None = None, pump_energy: bool = True) -> HopperDiagram:
-    """Plant and scene graph (the robot, ``terrain``), the planner system (``planner`` for the template
-    ``params``) and the controller (for the robot ``known``, default ``robot``), with optional Meshcat, as one
-    Diagram (``HopperDiagram.diagram``). ``pump_energy``: the robot raises its energy where the template's plans
-    skim (``EnergyPump``, ``PUMP_RISE``)."""
-    robot = robot or RobotParams(slip=SlipParams(friction=params.friction))
-    pump = EnergyPump.for_robot(known or robot, params) if pump_energy else None
+def build_closed_loop(replanner: Replanner, robot: RobotParams | None = None, *, known: RobotParams | None = None,
+                      seed: int = 0, replan_every: int = 1, pump_energy: bool = True, inject_energy: bool = True,
+                      meshcat=None) -> HopperDiagram:
+    """Plant and scene graph (the robot, ``replanner.terrain``), the planner system (``replanner`` with the robot's
+    ``face_keep_out``; ``seed`` and ``replan_every`` as there) and the controller (for the robot ``known``, default
+    ``robot``: a noise profile's model mismatch runs another plant), with optional Meshcat, as one Diagram
+    (``HopperDiagram.diagram``). ``robot`` defaults to the paper's with the template's friction; ``pump_energy``:
+    the robot raises its energy where the template's plans skim (``EnergyPump``)."""
+    robot = robot or RobotParams(slip=SlipParams(friction=replanner.params.friction))
+    pump = EnergyPump.for_robot(known or robot, replanner.params) if pump_energy else None
+    replanner = replace(replanner, face_keep_out=robot.face_keep_out)
 
     def make_planner(layout: StateLayout) -> FootstepPlannerSystem:
-        system = FootstepPlannerSystem(planner, terrain, goal_x, params, layout, robot.time_step, noise, seed,
-                                       map_filter, replan_every, robot.face_keep_out, pump)
+        system = FootstepPlannerSystem(replanner, layout, time_step=robot.time_step, seed=seed,
+                                       replan_every=replan_every, pump=pump)
         system.set_name("footstep_planner")
         return system
 
-    return build_diagram(terrain, robot, make_planner=make_planner, inject_energy=inject_energy, meshcat=meshcat,
-                         known=known)
+    return build_diagram(replanner.terrain, robot, make_planner=make_planner, inject_energy=inject_energy,
+                         meshcat=meshcat, known=known)
 
 
-def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: RobotParams | None = None, *,
-                    noise: NoiseProfile | None = None, seed: int = 0, map_filter: int = 1, max_hops: int = 60,
-                    replan_every: int = 1, inject_energy: bool = True, trajectory: bool = False,
-                    meshcat=None, pump_energy: bool = True) -> dict:
-    """One case (``case.id``, ``case.terrain``, ``case.apex``) in the closed-loop Diagram, replanning at every
-    apex, until the body passes ``goal_x`` at an apex, a failure, no plan, or ``max_hops``. Returns {"id",
-    "success", "failure", "what", "final_x", "plans", "hops", "max_pitch", "simulated_s", "wall_s"} (and "log",
-    the HopLog, with ``trajectory``); each record of "plans" that found a plan lists in "executed" the footholds
-    the robot touched down on aiming at its footholds, as the SLIP's loop records them. Noise draws come from
-    ``seed`` and the case's id; under a model mismatch the plant is the drawn robot ("executed_params") and the
-    controller keeps ``robot``'s values, as the SLIP's controller keeps the model's."""
-    noise = noise or NoiseProfile()
-    rng_seed = [seed, zlib.crc32(case.id.encode())]
-    model = robot or RobotParams(slip=SlipParams(friction=params.friction))
-    robot = model
-    if not noise.silent:   # the case's model mismatch: the robot's spring, mass and friction drawn once
-        robot = replace(model, slip=noise.executed_params(model.slip, np.random.default_rng(rng_seed)))
-    hd = build_closed_loop(planner, case.terrain, goal_x, params, robot, noise=noise,
-                           seed=np.random.SeedSequence(rng_seed).generate_state(1)[0], map_filter=map_filter,
-                           replan_every=replan_every, inject_energy=inject_energy, meshcat=meshcat, known=model,
-                           pump_energy=pump_energy)
+def run_closed_loop(planner, case, goal_x: float, params: SlipParams,
+                    config: ClosedLoopConfig = REPLAN_AT_EVERY_APEX, *, inject_energy: bool = True,
+                    trajectory: bool = False, meshcat=None) -> dict:
+    """One case (``case.id``, ``case.terrain``, ``case.apex``) on the robot ``config.robot`` (None: the paper's
+    with the friction of ``params``, the template the planner plans for), replanning at every
+    ``config.executed_per_plan``-th apex, until the body passes ``goal_x`` at an apex, a failure, no plan, or
+    ``config.max_hops``. Returns the loop's ``case_result`` with the robot's "what", "hops", "max_pitch",
+    "simulated_s" and "wall_s" (and "log", the HopLog, with ``trajectory``); each record of "plans" that found a
+    plan lists in "executed" the footholds the robot touched down on aiming at its footholds. Noise draws come
+    from ``config.seed`` and the case's id: the model mismatch first (the plant is the drawn robot,
+    "executed_params", while the controller keeps the model's values, as the SLIP's controller does), then the
+    planner system's, from a generator of its own."""
+    noise, seed = config.noise, case_seed(config.seed, case.id)
+    model = config.robot or RobotParams(slip=SlipParams(friction=params.friction))
+    robot = replace(model, slip=drawn_hopper(noise, model.slip, np.random.default_rng(seed)))
+    replanner = Replanner(planner, case.terrain, goal_x, params, noise, config.map_filter)
+    hd = build_closed_loop(replanner, robot, known=model, seed=np.random.SeedSequence(seed).generate_state(1)[0],
+                           replan_every=config.executed_per_plan, pump_energy=config.pump_energy,
+                           inject_energy=inject_energy, meshcat=meshcat)
+    result = simulate_closed_loop(hd, case, goal_x, config.max_hops, trajectory)
+    if not noise.silent:
+        result["executed_params"] = asdict(robot.slip)
+    return result
+
+
+def simulate_closed_loop(hd: HopperDiagram, case, goal_x: float, max_hops: int, trajectory: bool = False) -> dict:
+    """Run the closed-loop Diagram ``hd`` (``build_closed_loop``) from a fresh Context at the apex ``case.apex``
+    over ``case.terrain``; returns ``run_closed_loop``'s result, but for "executed_params"."""
     simulator = Simulator(hd.diagram)
     context = simulator.get_mutable_context()
     apex = ApexState(*map(float, case.apex))
+    robot = hd.params
     # the first plan is made before the start, so that the leg starts aimed at its first foothold
-    first = hd.planner.plan(apex, 0)
-    hd.planner.GetMyMutableContextFromRoot(context).SetAbstractState(0, first)
+    first = hd.planner.start(hd.planner.GetMyMutableContextFromRoot(context), apex)
     angle = hd.controller.raibert_angle(apex.xdot, first.speed) if not first.footholds else touchdown_angle(
         apex.x, apex.z, apex.xdot, 0.0, first.footholds[0], first.terrain.height_at(first.footholds[0]),
         robot.rest_extension, robot.foot_radius, robot.slip.gravity)
@@ -247,27 +223,25 @@ def run_closed_loop(planner, case, goal_x: float, params: SlipParams, robot: Rob
     if hd.visualizer is not None:
         hd.visualizer.StopRecording()
         hd.visualizer.PublishRecording()
-    log, records = monitor.log, hd.planner.records
-    _record_executed(records, log)
+    log = monitor.log
+    records = executed_records(hd.planner.records(monitor.planner_context), log)
     failure = None if log.failure is None else log.failure.mode.name
     final_x = log.apexes[-1].x if log.apexes else apex.x
     if failure is None and monitor.outcome != "goal":
         failure = monitor.outcome
-    result = {"id": case.id, "success": failure is None, "failure": failure,
-              "what": log.failure.what if log.failure else monitor.outcome,
-              "final_x": float(log.failure.x if log.failure else final_x), "plans": records,
-              "hops": len(log.footholds), "max_pitch": log.max_pitch, "simulated_s": context.get_time(),
-              "wall_s": wall}
-    if not noise.silent:
-        result["executed_params"] = asdict(robot.slip)
+    result = case_result(case.id, failure, float(log.failure.x if log.failure else final_x), records)
+    result.update(what=log.failure.what if log.failure else monitor.outcome, hops=len(log.footholds),
+                  max_pitch=log.max_pitch, simulated_s=context.get_time(), wall_s=wall)
     if trajectory:
         result["log"] = log
     return result
 
 
-def _record_executed(records: list, log) -> None:
-    """Give each record that found a plan the touchdowns (foot x) that aimed at its footholds, in order: the
-    first k of its footholds were executed, where k is their number."""
+def executed_records(records, log) -> list:
+    """Copies of the planner system's ``records``, each that found a plan given the touchdowns (foot x) of
+    ``log`` that aimed at its footholds, in order, as "executed": the first k of its footholds were executed,
+    where k is their number."""
+    records = [dict(record) for record in records]
     commanded = {}
     for record in records:
         if record["success"]:
@@ -277,6 +251,7 @@ def _record_executed(records: list, log) -> None:
         record = commanded.get(stamp)
         if record is not None and index < len(record["footholds"]):
             record["executed"].append(float(x))
+    return records
 
 
 class _GoalMonitor(HopMonitor):
@@ -293,18 +268,15 @@ class _GoalMonitor(HopMonitor):
         if self.log.failure is not None:
             self.outcome = "failure"
             return status
-        command = self.planner_context.get_abstract_state(0).get_value()
-        self.command_footholds = command.footholds
+        self.command_footholds = self.hd.planner.command(self.planner_context).footholds
+        records = self.hd.planner.records(self.planner_context)
         apexes = self.log.apexes
         if apexes and apexes[-1].x >= self.goal_x:
             self.outcome = "goal"
-        elif self.hd.planner.records and not self.hd.planner.records[-1]["success"] \
-                and "pumped" not in self.hd.planner.records[-1]:
+        elif records and not records[-1]["success"] and "pumped" not in records[-1]:
             self.outcome = "NO_PLAN"
         elif len(self.log.footholds) >= self.max_hops:
             self.outcome = "HOP_CAP"
         else:
             return status
-        from pydrake.systems.framework import EventStatus
-
         return EventStatus.ReachedTermination(self.hd.diagram, self.outcome)

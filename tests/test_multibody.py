@@ -1,6 +1,6 @@
 """The multibody hopper: its model and terrain geometry, the closed loop crossing a ditch, the controller's energy
-injection mattering, the planner system in a diagram built by hand, the robot pumping energy the template has not,
-and the controller built for the model under a noise profile's model mismatch."""
+injection mattering, the leg's swing at touchdown and liftoff, the fitted template, and the robot's replay and
+figure (the planner system and the robot's loop: tests/test_multibody_loop.py)."""
 import importlib.util
 from pathlib import Path
 from types import SimpleNamespace
@@ -16,7 +16,7 @@ from drakeslip.multibody.terrain import terrain_runs
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def _example():
+def example_module():
     spec = importlib.util.spec_from_file_location("hop_multibody", ROOT / "examples" / "hop_multibody.py")
     module = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(module)
@@ -38,14 +38,40 @@ def test_the_model_file_takes_the_parameters():
         RobotParams(foot_radius=0.2)
 
 
+def test_the_controller_and_the_monitor_take_the_robots_geometry_from_its_model():
+    """The upper leg's centre of mass and pitch inertia and the body box as Drake parses the model, and the stance
+    time in the hopper's time units (the paper's hopper's to the bit)."""
+    from pydrake.geometry import Role
+
+    from drakeslip.multibody.controller import STANCE_TIME, stance_time
+    from drakeslip.multibody.diagram import build_diagram
+    from drakeslip.multibody.failures import HopMonitor
+    from drakeslip.multibody.robot import model_geometry
+
+    hd = build_diagram(ds.Terrain.flat(), RobotParams())
+    leg, body = hd.plant.GetBodyByName("leg"), hd.plant.GetBodyByName("body")
+    com = leg.default_com()
+    inertia = leg.default_spatial_inertia().Shift(com).CalcRotationalInertia().CopyToFullMatrix3()
+    inspector = hd.scene_graph.model_inspector()
+    (box,) = [inspector.GetShape(g) for g in inspector.GetGeometries(hd.plant.GetBodyFrameIdOrThrow(body.index()),
+                                                                     Role.kIllustration)]
+    geometry = model_geometry(RobotParams())
+    assert (geometry.leg_com, geometry.leg_inertia) == pytest.approx((-com[2], inertia[1, 1]), rel=1e-12)
+    assert geometry.body_half == pytest.approx((box.width() / 2, box.height() / 2), rel=1e-12)
+    assert (hd.controller.leg_com, hd.controller.leg_inertia) == (geometry.leg_com, geometry.leg_inertia)
+    assert HopMonitor(hd, ds.Terrain.flat(), hd.diagram.CreateDefaultContext(), None).body_half == geometry.body_half
+    assert stance_time(ds.SlipParams()) == STANCE_TIME and hd.controller.stance_time == STANCE_TIME
+    assert stance_time(ds.SlipParams(leg_length=1.0)) == pytest.approx(STANCE_TIME * np.sqrt(2))
+
+
 def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
     angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, 0.47, 0.03, 9.81)
     t = np.sqrt(2 * (0.8 - 0.47 * np.cos(angle) - 0.03) / 9.81)
     assert 1.5 * t + 0.47 * np.sin(angle) == pytest.approx(0.6, abs=1e-6)
 
 
-def _ditches_case():
-    return SimpleNamespace(id="two-ditches", terrain=_example().two_ditches(), apex=(0.0, 0.62, 1.5))
+def ditches_case():
+    return SimpleNamespace(id="two-ditches", terrain=example_module().two_ditches(), apex=(0.0, 0.62, 1.5))
 
 
 @pytest.fixture(scope="module")
@@ -56,7 +82,7 @@ def ditches_run():
     from planners.drake_system import run_closed_loop
 
     recorder = PlanRecorder(planners.make("step@robust"))
-    return run_closed_loop(recorder, _ditches_case(), 4.0, ds.SlipParams(), trajectory=True), recorder
+    return run_closed_loop(recorder, ditches_case(), 4.0, ds.SlipParams(), trajectory=True), recorder
 
 
 def test_a_multibody_case_crosses_short_ditches(ditches_run):
@@ -76,7 +102,7 @@ def test_a_multibody_case_crosses_short_ditches(ditches_run):
 def test_without_energy_injection_the_same_case_runs_out_of_energy():
     from planners.drake_system import run_closed_loop
 
-    result = run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams(), inject_energy=False,
+    result = run_closed_loop("step@robust", ditches_case(), 4.0, ds.SlipParams(), inject_energy=False,
                              trajectory=True)
     assert not result["success"] and result["final_x"] < 4.0
     energies = [apex_energy(a.z, a.xdot, 9.81) for a in result["log"].apexes]
@@ -87,40 +113,9 @@ def test_without_energy_injection_the_same_case_runs_out_of_energy():
     from drakeslip.multibody.replay import draw_robot_replay
 
     meshcat = Meshcat()   # the replay marks and names the failure
-    draw_robot_replay(meshcat, result["log"], _ditches_case().terrain, fps=10)
+    draw_robot_replay(meshcat, result["log"], ditches_case().terrain, fps=10)
     failure = result["log"].failure
     assert failure is not None and all(meshcat.HasPath(f"/drakeslip/world/failure/{p}") for p in ("x", "label"))
-
-
-def test_the_planner_system_in_a_user_built_diagram_plans_at_every_apex():
-    planner_system, x, seconds, apexes = _example().run("step@robust", 2.0, seconds=2.5)
-    assert apexes >= 3 and len(planner_system.records) == apexes + 1   # the start is an apex too
-    assert all(record["success"] for record in planner_system.records)
-    xs = [record["apex"][0] for record in planner_system.records]
-    assert xs == sorted(xs)
-
-
-def test_the_robots_planner_places_no_foothold_just_before_a_steps_face():
-    """The foot ball rolls and is dragged at liftoff: a foothold just before a rise lets it catch the face."""
-    from planners.drake_system import FootstepPlannerSystem, build_closed_loop
-
-    terrain, robot = ds.step_world(3), RobotParams()
-    h = terrain.heights
-    rise = np.flatnonzero((h[1:] - h[:-1] > 0.02) & (h[:-1] > terrain.ditch_height)) + 1
-    faces = terrain.x0 + terrain.cell * rise
-    hd = build_closed_loop("step@robust", terrain, 6.0, ds.SlipParams(), robot)
-    assert hd.planner.face_keep_out == pytest.approx(robot.foot_radius + 0.05)
-
-    def footholds_before_faces(keep_out: float) -> list:
-        hd.planner.face_keep_out = keep_out
-        footholds = hd.planner.plan(ds.ApexState(0.0, 0.65, 1.5), 0).footholds
-        assert len(footholds) >= 10
-        return [f for f in footholds if np.any((faces > f) & (faces - f < robot.face_keep_out))]
-
-    assert footholds_before_faces(robot.face_keep_out) == []
-    assert footholds_before_faces(0.0)   # planning on the sensed map as it is lands the foot next to a face here
-    with pytest.raises(ValueError, match="face_keep_out"):
-        FootstepPlannerSystem("step@robust", terrain, 6.0, ds.SlipParams(), hd.layout, face_keep_out=float("nan"))
 
 
 def _foot_path(speed: float):
@@ -160,51 +155,6 @@ def test_after_liftoff_the_foot_rises_where_it_stood():
     assert abs(foot) < 0.6 * body   # a leg left to swing on by itself lets the hip drag the foot about 2/3 as far
 
 
-def test_the_pump_asks_for_energy_where_the_foot_cannot_swing_through_under_the_apex():
-    from planners.drake_system import EnergyPump
-
-    pump, flat = EnergyPump(0.5, 0.15, 0.02), ds.Terrain.flat()
-    assert pump.needed([(0.0, 0.52, 0.5)], flat)            # a slow apex a leg length up: the foot scrapes
-    assert not pump.needed([(0.0, 0.6, 0.5)], flat)
-    assert not pump.needed([(0.0, 0.5, 3.3)], flat)          # a fast skim: the leg waits far forward
-    step = ds.Terrain(np.where(np.arange(200) * 0.05 - 3.0 >= 0.05, 0.1, 0.0), cell=0.05, x0=-3.0)
-    assert pump.needed([(0.0, 0.6, 1.0)], step)              # the ground ahead under the foot is what counts
-    assert not pump.needed([(0.0, 0.6, 1.0)], flat)
-    apex = ds.ApexState(-1.0, 0.8, 1.0)                      # a hop in place covers about 0.7 m at 1 m/s
-    assert pump.room(apex, flat, 9.81) and not pump.room(apex, step, 9.81)
-    assert pump.room(ds.ApexState(-2.0, 0.8, 1.0), step, 9.81)
-
-
-def test_from_a_start_with_no_plan_the_robot_pumps_on_level_ground_until_it_has_one():
-    from drakeslip.multibody.fit import fitted_template
-    from planners.drake_system import run_closed_loop
-
-    case = SimpleNamespace(id="step-7714-v1-z0.8", terrain=ds.step_world(7714), apex=(-1.0, 0.8, 1.0))
-    result = run_closed_loop("step@robust", case, 6.0, fitted_template().with_friction(0.8), RobotParams(),
-                             map_filter=5)
-    first = result["plans"][0]
-    assert not first["success"] and "pumped" in first and not first["footholds"]
-    assert result["success"], result["what"]
-    assert any(record["success"] for record in result["plans"])
-
-
-def test_a_low_start_before_a_high_step_crosses_because_the_robot_pumps_energy():
-    """From 0.8 m at 2 m/s the template's only plans over the 0.49 m step skim it with the body less than a leg
-    length above it; the robot's leg, swung through under the hip, falls into the step unless the robot raises
-    its energy first."""
-    from drakeslip.multibody.fit import fitted_template
-    from planners.drake_system import run_closed_loop
-
-    case = SimpleNamespace(id="step-7714-v2-z0.8", terrain=ds.step_world(7714), apex=(-1.0, 0.8, 2.0))
-    template = fitted_template().with_friction(0.8)
-    runs = {pump: run_closed_loop("step@robust", case, 6.0, template, RobotParams(), map_filter=5,
-                                  pump_energy=pump) for pump in (True, False)}
-    assert runs[True]["success"], runs[True]["what"]
-    assert any("pumped" in record for record in runs[True]["plans"])
-    assert not runs[False]["success"] and runs[False]["failure"] == "BODY_COLLISION"
-    assert not any("pumped" in record for record in runs[False]["plans"])
-
-
 def test_a_speed_error_in_the_apex_estimate_carries_into_where_the_foot_lands():
     """As the SLIP's controller and the robust planner's particles do: a robot told it is faster than it is aims
     from an estimate that runs ahead of it through the descent, and lands short by the error times the fall."""
@@ -216,28 +166,6 @@ def test_a_speed_error_in_the_apex_estimate_carries_into_where_the_foot_lands():
     fall = np.sqrt(2 * (0.75 - 0.47 * np.cos(0.25) - 0.03) / 9.81)   # apex to touchdown, about 0.23 s
     for e in (-0.1, 0.1):
         assert touched[e] - touched[0.0] == pytest.approx(-e * fall, rel=0.25)
-
-
-def test_under_model_mismatch_the_controller_keeps_the_models_values(monkeypatch):
-    """The plant is the drawn robot, the controller is built for the model (as the SLIP's controller is)."""
-    import planners.drake_system as drake_system
-    from drakeslip.noise import profile
-
-    built = {}
-
-    def build(*args, **kwargs):
-        built["hd"] = real_build(*args, **kwargs)
-        raise StopIteration   # the diagram is all this test looks at
-
-    real_build = drake_system.build_closed_loop
-    monkeypatch.setattr(drake_system, "build_closed_loop", build)
-    with pytest.raises(StopIteration):
-        drake_system.run_closed_loop("step@robust", _ditches_case(), 4.0, ds.SlipParams(), noise=profile("model"))
-    hd = built["hd"]
-    assert hd.controller.params == RobotParams()
-    body_mass = hd.plant.GetBodyByName("body").default_mass()
-    assert hd.params.slip != RobotParams().slip and body_mass == pytest.approx(hd.params.slip.mass)
-    assert body_mass != pytest.approx(RobotParams().slip.mass)
 
 
 def test_a_multibody_rollout_builds_its_controller_for_the_model(monkeypatch):
@@ -290,7 +218,7 @@ def robot_page(ditches_run, tmp_path_factory):
 
     result, recorder = ditches_run
     planned, predicted = executed_plans(recorder.plans, result["plans"])
-    return write_robot_replay(result["log"], _ditches_case().terrain, tmp_path_factory.mktemp("robot") / "robot.html",
+    return write_robot_replay(result["log"], ditches_case().terrain, tmp_path_factory.mktemp("robot") / "robot.html",
                               planned, predicted, title="robot over a ditch")
 
 
@@ -340,7 +268,7 @@ def test_the_robot_figure_shows_the_whole_path_and_the_leg_at_each_touchdown_and
 
     result, _ = ditches_run
     log = result["log"]
-    ax = plot_robot_run(log, _ditches_case().terrain)
+    ax = plot_robot_run(log, ditches_case().terrain)
     z = np.array(log.positions)[:, 1]
     assert ax.get_ylim()[0] < 0.0 and ax.get_ylim()[1] > z.max() > 0.6
     legs = [line for line in ax.lines if line.get_color() == LEG_COLOR and len(line.get_xdata()) == 2]
@@ -349,25 +277,3 @@ def test_the_robot_figure_shows_the_whole_path_and_the_leg_at_each_touchdown_and
     np.testing.assert_allclose(feet, log.footholds, atol=0.01)   # a leg at touchdown ends on its foothold
 
 
-def test_the_closed_loop_config_switches_the_pump_and_records_it(monkeypatch, run_script):
-    """``evaluate.py --no-pump`` reaches the robot's diagram, is part of the results' config (so cached cases of
-    the other setting are not reused), and is a usage error on a backend without the robot."""
-    import planners.drake_system as drake_system
-    from planners.closed_loop import ClosedLoopConfig, run_case
-
-    seen = []
-
-    def run(*args, **kwargs):
-        seen.append(kwargs["pump_energy"])
-        raise StopIteration
-
-    monkeypatch.setattr(drake_system, "run_closed_loop", run)
-    for pump in (True, False):
-        config = ClosedLoopConfig(backend="multibody", pump_energy=pump)
-        with pytest.raises(StopIteration):
-            run_case("step@robust", None, _ditches_case(), 4.0, ds.SlipParams(), config)
-        assert config.to_dict()["pump_energy"] is pump
-    assert seen == [True, False]
-    code, _, err = run_script("evaluate", "--suite", ROOT / "suites" / "ditch.json", "--planners", "step",
-                              "--backend", "fast", "--no-pump", "--out", "unused.json")
-    assert code == 2 and "--no-pump needs --backend multibody, got --backend fast" in err

@@ -7,8 +7,8 @@ plan's apexes have). Contact is inferred from the leg's compression, never from 
 ``actuation`` is (hip torque, leg force), inside the motor's torque-speed envelope and the leg actuator's force
 limit, applied one control period after the measurement it comes from.
 
-Phases (the discrete state's ``PHASE``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` and, until
-the foot is ``CLEARANCE`` above the ground, swings back under the hip's advance so that the foot rises where it
+Phases (``Phase``, the discrete state's ``phase``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` and,
+until the foot is ``CLEARANCE`` above the ground, swings back under the hip's advance so that the foot rises where it
 stood (dragged forward, a foot near a step's face catches it and kicks the leg and body round); then it swings to
 the neutral angle (half the stance's travel ahead, Raibert's), where it waits for the footholds the planner chooses
 at the apex; DESCENT, from apex (vertical velocity reaching zero) to touchdown (the leg compressing): the leg
@@ -19,28 +19,40 @@ which has mass, meets the ground slower than the body moves instead of sliding b
 (within the friction cone's share of the leg force) and the leg actuator pushes during extension until the body
 has the energy the next planned apex needs plus what the unsprung foot's liftoff will take. The energy each hop
 still falls short of at its apex (damping, the model's errors) is learned as a bias added to the next targets.
-
-Parameters: ``RobotParams`` (the robot the controller knows), ``inject_energy`` (False: the leg actuator only
-retracts and extends the leg in flight, so nothing returns the energy each hop loses).
 """
 from __future__ import annotations
 
+import enum
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
+from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from drakeslip.multibody.robot import RobotParams, StateLayout
+from drakeslip.multibody.robot import RobotParams, StateLayout, model_geometry
+from drakeslip.params import SlipParams
 from drakeslip.terrain import Terrain
+from drakeslip.units import units_of
 
-ASCENT, DESCENT, STANCE = 0.0, 1.0, 2.0
-# The discrete state vector: phase; touchdowns since the command arrived; the command's stamp; apexes reached;
-# learned energy bias [J/kg]; this hop's energy target [J/kg]; hip torque and leg force sent; time the phase
-# began; foot x and the absolute leg angle at touchdown.
-(PHASE, STEP, STAMP, APEXES, BIAS, TARGET, TORQUE, FORCE, PHASE_START, TOUCHDOWN_X, TD_ANGLE) = range(11)
-STATE_SIZE = 11
+
+class Phase(enum.IntEnum):
+    """The controller's phase of a hop (see the module doc)."""
+
+    ASCENT = 0
+    DESCENT = 1
+    STANCE = 2
+
+
+# The discrete state: the phase (a Phase); touchdowns since the command arrived; the command's stamp; apexes
+# reached; the learned energy bias [J/kg]; this hop's energy target [J/kg] (NaN: none yet); the hip torque and leg
+# force sent; the time the phase began; the foot's x and the absolute leg angle at touchdown.
+ControlState = namedview("ControlState", ["phase", "step", "stamp", "apexes", "bias", "target", "torque", "force",
+                                          "phase_start", "touchdown_x", "touchdown_angle"])
+# What the robot senses: the body's x, z and pitch, the hip angle and the leg extension, and their rates.
+Sensed = namedview("Sensed", ["x", "z", "pitch", "hip", "leg", "xd", "zd", "pitchd", "hipd", "legd"])
 
 CLEARANCE = 0.03          # [m] the foot's height above the ground before the leg swings forward after liftoff
 RETRACT = 0.04            # [m] leg retraction in ascent: clears the ground the foot just left
@@ -53,6 +65,30 @@ FLIGHT_GAINS = (150.0, 6.0)    # hip PD on the absolute leg angle in flight [N m
 STANCE_GAINS = (100.0, 60.0)   # hip PD in stance on the body pitch and on the angular momentum (as a rate)
 LEG_GAINS = (3000.0, 40.0)     # leg PD on extension in flight [N/m, N s/m] (the spring is cancelled)
 FRICTION_SHARE = 0.4      # in stance the hip torque asks for at most this share of the friction cone
+# [s] the paper's hopper's stance, about half its body-on-spring period pi sqrt(m / k); a hopper's own is this in
+# its time units (``stance_time``)
+STANCE_TIME = 0.15
+# Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
+# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.8 of the body's
+# speed (tests/test_multibody.py). A foot landing at the body's speed slides before the leg's force holds it; the
+# faster the leg swings back as it lands, the less a hop that lands far ahead brakes than the template's, and the
+# robot reaches its next apex faster and farther than planned, where the planner may have no plan (docs/multibody.md)
+LANDING_SWING_SHARE = 0.25
+LANDING_SWING_TIME = 0.06   # [s]
+LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while the foot rises where it stood
+SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
+
+
+class Heights:
+    """A terrain's height at a scalar x, in plain Python (``Terrain.height_at`` is made for arrays)."""
+
+    def __init__(self, terrain: Terrain):
+        self.terrain, self.x0, self.cell = terrain, terrain.x0, terrain.cell
+        self.values = terrain.heights.tolist()
+        self.last = len(self.values) - 1
+
+    def __call__(self, x: float) -> float:
+        return self.values[min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.last)]
 
 
 @dataclass(frozen=True)
@@ -77,17 +113,10 @@ class FootholdCommand:
     def __deepcopy__(self, memo):
         return self   # immutable (frozen, tuples, a read-only terrain): Drake's state copies may share it
 
-
-class Heights:
-    """A terrain's height at a scalar x, in plain Python (``Terrain.height_at`` is made for arrays)."""
-
-    def __init__(self, terrain: Terrain):
-        self.terrain, self.x0, self.cell = terrain, terrain.x0, terrain.cell
-        self.values = terrain.heights.tolist()
-        self.last = len(self.values) - 1
-
-    def __call__(self, x: float) -> float:
-        return self.values[min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.last)]
+    @functools.cached_property
+    def heights(self) -> Heights:
+        """The height of ``terrain`` at a scalar x, looked up at every control period of a descent."""
+        return Heights(self.terrain)
 
 
 def apex_energy(z: float, xdot: float, gravity: float) -> float:
@@ -103,6 +132,7 @@ def time_to_ground(z, zdot, angle, ground, reach, foot_radius, gravity) -> float
     return (zdot + math.sqrt(disc)) / gravity if disc > 0 else max(zdot / gravity, 0.0)
 
 
+# nine plain floats: the body state, the target and the robot's three values, called at every control period
 def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, reach, foot_radius, gravity) -> float:
     """The absolute leg angle (SLIP convention) that, held from the body state (x, z, xdot, zdot) on its
     ballistic path, lands the foot ball's centre (``reach`` from the hip) above ``foothold_x`` when its bottom
@@ -110,9 +140,7 @@ def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, reach, foot_radius, gr
     lo, hi = -1.0, 1.0
     for _ in range(30):
         mid = 0.5 * (lo + hi)
-        drop = z - reach * math.cos(mid) - foot_radius - ground
-        disc = zdot * zdot + 2.0 * gravity * drop
-        t = (zdot + math.sqrt(disc)) / gravity if disc > 0 else max(zdot / gravity, 0.0)
+        t = time_to_ground(z, zdot, mid, ground, reach, foot_radius, gravity)
         if x + xdot * t + reach * math.sin(mid) < foothold_x:
             lo = mid
         else:
@@ -129,189 +157,224 @@ def motor_torque(torque: float, speed: float, params: RobotParams) -> float:
     return max(-limit, min(limit, torque))
 
 
-LEG_COM = 0.10            # [m] the upper leg's centre of mass below the hip (robot.sdf)
-LEG_INERTIA = 0.0026      # [kg m^2] the upper leg's pitch inertia about its centre of mass (robot.sdf)
-STANCE_TIME = 0.15        # [s] about half the body-on-spring period, pi sqrt(m / k) for the paper's hopper
-# Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
-# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.8 of the body's
-# speed (tests/test_multibody.py). A foot landing at the body's speed slides before the leg's force holds it; the
-# faster the leg swings back as it lands, the less a hop that lands far ahead brakes than the template's, and the
-# robot reaches its next apex faster and farther than planned, where the planner may have no plan (docs/multibody.md)
-LANDING_SWING_SHARE = 0.25
-LANDING_SWING_TIME = 0.06   # [s]
-LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while the foot rises where it stood
-SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
+def stance_time(params: SlipParams) -> float:
+    """The stance of the hopper ``params`` [s]: STANCE_TIME in its time units (``drakeslip.units``)."""
+    return STANCE_TIME * units_of(params).time
 
 
-def neutral_angle(xdot: float, leg_length: float, offset: float = 0.0) -> float:
-    """The leg angle that puts the foot at the neutral point, half the stance's travel (``STANCE_TIME``) ahead of
-    the hip at forward speed ``xdot``, plus ``offset`` [m]: where the leg waits through the apex in flight."""
-    return math.asin(max(-0.8, min(0.8, (0.5 * xdot * STANCE_TIME + offset) / leg_length)))
+def neutral_angle(xdot: float, leg_length: float, stance: float, offset: float = 0.0) -> float:
+    """The leg angle that puts the foot at the neutral point, half the ``stance`` [s] travel ahead of the hip at
+    forward speed ``xdot``, plus ``offset`` [m]: where the leg waits through the apex in flight."""
+    return math.asin(max(-0.8, min(0.8, (0.5 * xdot * stance + offset) / leg_length)))
 
 
 class HopperController(LeafSystem):
-    """Input ports ``state`` (the plant's state vector, read through ``layout``) and ``command`` (abstract
-    ``FootholdCommand``); output ``actuation`` (the plant's actuation vector). Discrete state: see STATE_SIZE."""
+    """The robot's controller at its control rate (``RobotParams.time_step``); see the module doc.
+
+    Input ports
+      state: the plant's state vector, read through ``layout`` (``Sensed``).
+      command: abstract ``FootholdCommand``.
+    Output port
+      actuation: the plant's actuation vector (hip torque, leg force at ``layout.actuation``).
+    State
+      discrete (``ControlState``): phase (``Phase``), step, stamp, apexes, bias, target, torque, force,
+      phase_start, touchdown_x, touchdown_angle.
+    Parameters
+      ``params`` (the robot the controller knows: a noise profile's model mismatch runs another plant),
+      ``layout`` (the robot in the plant), ``inject_energy`` (False: the leg actuator only retracts and extends
+      the leg in flight, so nothing returns the energy each hop loses); the upper leg's mass distribution and the
+      stance time come from them (``model_geometry``, ``stance_time``). Everything that changes lives in the
+      Context.
+    """
 
     def __init__(self, params: RobotParams, layout: StateLayout, inject_energy: bool = True):
         super().__init__()
         self.params, self.layout, self.inject_energy = params, layout, bool(inject_energy)
-        self._q, self._v = list(layout.q), list(layout.v)
+        self._sensed = list(layout.q) + list(layout.v)
+        geometry = model_geometry(params)
+        self.leg_com, self.leg_inertia = geometry.leg_com, geometry.leg_inertia
+        self.stance_time = stance_time(params.slip)
         self.pitch_inertia = params.body_pitch_inertia
-        self._lookup = None
         self.foot_share = params.foot_mass / params.slip.mass
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
         m_total = params.total_mass
         reach = params.rest_extension - RETRACT
         leg_inertia = (params.foot_mass * (m_total - params.foot_mass) / m_total * reach ** 2
-                       + params.leg_mass * (m_total - params.leg_mass) / m_total * LEG_COM ** 2 + LEG_INERTIA)
+                       + params.leg_mass * (m_total - params.leg_mass) / m_total * self.leg_com ** 2
+                       + self.leg_inertia)
         self.swing_ratio = leg_inertia / params.body_pitch_inertia
         self.state_port = self.DeclareVectorInputPort("state", max(layout.v) + 1)
         empty = FootholdCommand((), Terrain.flat(), None, -1)
         self.command_port = self.DeclareAbstractInputPort("command", AbstractValue.Make(empty))
-        self.control_state = self.DeclareDiscreteState(STATE_SIZE)
+        self.control_state = self.DeclareDiscreteState(len(ControlState.get_fields()))
         self.DeclarePeriodicDiscreteUpdateEvent(params.time_step, 0.0, self._update)
         self.DeclareVectorOutputPort("actuation", layout.n_actuators, self._output,
                                      prerequisites_of_calc={self.discrete_state_ticket(self.control_state)})
 
-    def initial_state(self, phase: float = DESCENT, energy_bias: float = 0.0) -> np.ndarray:
+    def initial_state(self, phase: Phase = Phase.DESCENT, energy_bias: float = 0.0) -> np.ndarray:
         """A discrete state vector to start from (``phase``, a known ``energy_bias``)."""
-        s = np.zeros(STATE_SIZE)
-        s[PHASE], s[STAMP], s[BIAS], s[TARGET] = phase, -1.0, energy_bias, math.nan
-        return s
+        s = ControlState.Zero()
+        s.phase, s.stamp, s.bias, s.target = phase, -1.0, energy_bias, math.nan
+        return np.asarray(s)
+
+    def control_state_of(self, context) -> ControlState:
+        """The controller's state in its ``context`` (a read-only view)."""
+        return ControlState(context.get_discrete_state(self.control_state).get_value())
 
     def _output(self, context, output: BasicVector):
-        s = context.get_discrete_state(self.control_state).get_value()
+        s = self.control_state_of(context)
         u = np.zeros(self.layout.n_actuators)
-        u[self.layout.actuation[0]], u[self.layout.actuation[1]] = s[TORQUE], s[FORCE]
+        u[self.layout.actuation[0]], u[self.layout.actuation[1]] = s.torque, s.force
         output.SetFromVector(u)
 
-    def _angular_momentum(self, xd, zd, pitchd, leg, legd, angle, angle_rate) -> float:
-        """The robot's angular momentum about its centre of mass [N m s] (positive turning x toward z)."""
+    def raibert_angle(self, xdot: float, speed: float) -> float:
+        """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
+        plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
+        return neutral_angle(xdot, self.params.slip.leg_length, self.stance_time, SPEED_GAIN * (xdot - speed))
+
+    def _update(self, context, discrete_state):
+        s = ControlState(discrete_state.get_mutable_vector(self.control_state).get_mutable_value())
+        m = Sensed(self.state_port.Eval(context)[self._sensed])
+        command = self.command_port.Eval(context)
+        t = context.get_time()
+        if command.stamp != s.stamp:
+            s.stamp, s.step = command.stamp, 0.0
+            if command.energy is not None and s.phase == Phase.DESCENT:
+                s.target = command.energy   # the command of the planner's apex (the apex this descent began at)
+        phase = self._next_phase(s, m, command, t)
+        if phase != s.phase:
+            s.phase, s.phase_start = phase, t
+        if math.isnan(s.target):
+            s.target = command.energy if command.energy is not None else apex_energy(m.z, m.xd,
+                                                                                      self.params.slip.gravity)
+        if phase == Phase.STANCE:
+            torque, force = self._stance_control(s, m)
+        else:
+            torque, force = self._flight_control(s, m, command, t, phase)
+        s.torque = motor_torque(torque, m.hipd, self.params)
+        s.force = force
+
+    def _next_phase(self, s: ControlState, m: Sensed, command: FootholdCommand, t: float) -> Phase:
+        """The phase after this period's measurement: an apex (learning the energy it missed and taking the next
+        target), a touchdown (counting it and recording where) or a liftoff ends the phase."""
+        rest, g = self.params.rest_extension, self.params.slip.gravity
+        phase = Phase(int(s.phase))
+        if phase == Phase.ASCENT and m.zd <= 0.0:
+            s.apexes += 1.0
+            energy = apex_energy(m.z, m.xd, g)
+            if not math.isnan(s.target):
+                s.bias += BIAS_GAIN * (s.target - energy)
+            s.target = command.energy if command.energy is not None else energy
+            return Phase.DESCENT
+        if phase == Phase.DESCENT and rest - m.leg > TOUCHDOWN_COMPRESSION and m.legd < TOUCHDOWN_RATE:
+            s.step += 1.0
+            s.touchdown_x = m.x + m.leg * math.sin(m.pitch + m.hip)
+            s.touchdown_angle = m.pitch + m.hip
+            return Phase.STANCE
+        if phase == Phase.STANCE and t - s.phase_start > MIN_STANCE and m.leg >= rest - LIFTOFF_MARGIN:
+            return Phase.ASCENT
+        return phase
+
+    def _stance_control(self, s: ControlState, m: Sensed) -> tuple:
+        """(hip torque, leg force) in stance: the body's pitch and the robot's angular momentum held, the leg
+        pushing during extension until the body has this hop's energy target."""
         p = self.params
+        slip, rest, g = p.slip, p.rest_extension, p.slip.gravity
+        z, xd, zd, leg, legd = m.z, m.xd, m.zd, m.leg, m.legd
+        angle, angle_rate = m.pitch + m.hip, m.pitchd + m.hipd
+        kp, kd = STANCE_GAINS
+        # lean against the pitch the next flight's leg swing will cause (about symmetric: -angle to +angle)
+        lean = self.swing_ratio * s.touchdown_angle
+        momentum = self._angular_momentum(m.pitchd, leg, legd, angle, angle_rate)
+        # the leg pushes the body toward the lean and the robot's angular momentum toward zero, so that
+        # the leg's swing in flight (which cannot change it) ends with the body near level
+        torque = kp * (m.pitch - lean) + kd * momentum / self.pitch_inertia
+        leg_force = slip.stiffness * max(rest - leg, 0.0)
+        reach = leg + p.foot_radius
+        torque_cap = FRICTION_SHARE * slip.friction * leg_force * reach
+        torque = max(-torque_cap, min(torque_cap, torque))
+        force = 0.0
+        if self.inject_energy and legd > 0.0:
+            energy = g * z + 0.5 * (xd * xd + zd * zd) + 0.5 * slip.stiffness * (rest - leg) ** 2 / slip.mass
+            # the foot, at rest on the ground, is jerked to the body's speed at liftoff: a plastic impact
+            liftoff_loss = 0.5 * self.foot_share * (xd * xd + zd * zd)
+            need = s.target + liftoff_loss + s.bias - energy
+            force = slip.mass * need / max(rest - leg, 0.01)
+            force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
+        return torque, force
+
+    def _flight_control(self, s: ControlState, m: Sensed, command: FootholdCommand, t: float, phase: Phase):
+        """(hip torque, leg force) in flight: the hip aims the leg (``_flight_target``) and the leg retracts in
+        ascent and extends to its stop in descent."""
+        p = self.params
+        rest, leg, legd = p.rest_extension, m.leg, m.legd
+        angle, angle_rate = m.pitch + m.hip, m.pitchd + m.hipd
+        target, rate = self._flight_target(s, m, command, t, phase)
+        kp, kd = FLIGHT_GAINS
+        if phase == Phase.ASCENT and self._clearance(m.x, m.z, leg, angle, target, command) < CLEARANCE:
+            # the foot is leaving the ground: the leg retracts and swings back at the rate that keeps the foot
+            # over the ground it left
+            kp, kd = 0.0, LIFT_DAMPING
+            rate = -(m.xd + legd * math.sin(angle)) / (leg * math.cos(angle))
+        torque = kp * (target - angle) + kd * (rate - angle_rate)
+        goal = rest - RETRACT if phase == Phase.ASCENT else rest + 0.01
+        kp, kd = LEG_GAINS
+        force = kp * (goal - leg) - kd * legd - p.slip.stiffness * (rest - leg)
+        force = max(-p.leg_force_limit, min(p.leg_force_limit, force))
+        return torque, force
+
+    def _flight_target(self, s: ControlState, m: Sensed, command: FootholdCommand, t: float, phase: Phase):
+        """(absolute leg angle, its rate the hip's damping acts about) in flight: the neutral angle in ascent, the
+        angle landing the foot on the next foothold in descent, Raibert's placement past the command's last."""
+        p = self.params
+        step = int(s.step)
+        if phase == Phase.ASCENT and step < len(command.footholds):
+            # the planner chooses the next foothold at the apex, from the apex reached: a leg swung before
+            # then toward the last plan's next foothold swings back when the new plan moves it, and each
+            # swing turns the body (swing_ratio); the hops after such swings stray from the template's
+            return self.raibert_angle(m.xd, m.xd), 0.0
+        if step >= len(command.footholds):
+            return self.raibert_angle(m.xd, command.speed), 0.0
+        foothold = command.footholds[step]
+        ground = command.heights(foothold)
+        ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
+        # (this branch is the descent, begun at the apex) the estimate's speed error at the apex carries
+        # into its position as the body flies on
+        ex += exd * (t - s.phase_start)
+        g, reach = p.slip.gravity, p.slip.leg_length - p.foot_radius
+        target = touchdown_angle(m.x + ex, m.z + ez, m.xd + exd, m.zd, foothold, ground, reach, p.foot_radius, g)
+        if step < len(command.angle_errors):
+            target += command.angle_errors[step]
+        # the hip leads the leg by the swing back still to come and damps it about the swing's rate, so
+        # that the leg is already swinging back when the foot lands on the foothold
+        rate = -LANDING_SWING_SHARE * (m.xd + exd) / (reach * math.cos(target))
+        target -= rate * min(time_to_ground(m.z + ez, m.zd, target, ground, reach, p.foot_radius, g),
+                             LANDING_SWING_TIME)
+        return target, rate
+
+    def _angular_momentum(self, pitchd, leg, legd, angle, angle_rate) -> float:
+        """The robot's angular momentum about its centre of mass [N m s] (positive turning x toward z)."""
+        p, com = self.params, self.leg_com
         sin, cos = math.sin(angle), math.cos(angle)
         masses = (p.slip.mass, p.leg_mass, p.foot_mass)
-        points = ((0.0, 0.0), (LEG_COM * sin, -LEG_COM * cos), (leg * sin, -leg * cos))
-        rates = ((0.0, 0.0), (LEG_COM * cos * angle_rate, LEG_COM * sin * angle_rate),
+        points = ((0.0, 0.0), (com * sin, -com * cos), (leg * sin, -leg * cos))
+        rates = ((0.0, 0.0), (com * cos * angle_rate, com * sin * angle_rate),
                  (legd * sin + leg * cos * angle_rate, -legd * cos + leg * sin * angle_rate))
         total = sum(masses)
         cx = sum(m * r[0] for m, r in zip(masses, points)) / total
         cz = sum(m * r[1] for m, r in zip(masses, points)) / total
         vx = sum(m * v[0] for m, v in zip(masses, rates)) / total
         vz = sum(m * v[1] for m, v in zip(masses, rates)) / total
-        spin = self.pitch_inertia * pitchd + LEG_INERTIA * angle_rate
+        spin = self.pitch_inertia * pitchd + self.leg_inertia * angle_rate
         return spin + sum(m * ((r[0] - cx) * (v[1] - vz) - (r[1] - cz) * (v[0] - vx))
                           for m, r, v in zip(masses, points, rates))
 
-    def _heights(self, terrain: Terrain) -> Heights:
-        if self._lookup is None or self._lookup.terrain is not terrain:
-            self._lookup = Heights(terrain)
-        return self._lookup
-
-    def _clearance(self, x, z, leg, angle, target, terrain: Terrain) -> float:
+    def _clearance(self, x, z, leg, angle, target, command: FootholdCommand) -> float:
         """The foot's height above the highest ground between it and where the swing to ``target`` takes it."""
+        terrain = command.terrain
         reach = leg + self.params.foot_radius
         foot_x = x + leg * math.sin(angle)
         lo, hi = sorted((foot_x, x + reach * math.sin(target)))
         cells = terrain.heights[terrain.index(lo):terrain.index(hi) + 1]
-        ground = float(cells.max()) if cells.size else self._heights(terrain)(foot_x)
+        ground = float(cells.max()) if cells.size else command.heights(foot_x)
         return z - leg * math.cos(angle) - self.params.foot_radius - ground
-
-    def raibert_angle(self, xdot: float, speed: float) -> float:
-        """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
-        plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
-        return neutral_angle(xdot, self.params.slip.leg_length, SPEED_GAIN * (xdot - speed))
-
-    def _update(self, context, discrete_state):
-        p = self.params
-        slip = p.slip
-        s = discrete_state.get_mutable_vector(self.control_state).get_mutable_value()
-        full = self.state_port.Eval(context)
-        (x, z, pitch, hip, leg), (xd, zd, pitchd, hipd, legd) = full[self._q], full[self._v]
-        command = self.command_port.Eval(context)
-        t = context.get_time()
-        if command.stamp != s[STAMP]:
-            s[STAMP], s[STEP] = command.stamp, 0.0
-            if command.energy is not None and s[PHASE] == DESCENT:
-                s[TARGET] = command.energy   # the command of the planner's apex (the apex this descent began at)
-        rest, g = p.rest_extension, slip.gravity
-        phase = s[PHASE]
-        if phase == ASCENT and zd <= 0.0:
-            s[APEXES] += 1.0
-            energy = apex_energy(z, xd, g)
-            if s[TARGET] == s[TARGET]:
-                s[BIAS] += BIAS_GAIN * (s[TARGET] - energy)
-            s[TARGET] = command.energy if command.energy is not None else energy
-            phase = DESCENT
-        elif phase == DESCENT and rest - leg > TOUCHDOWN_COMPRESSION and legd < TOUCHDOWN_RATE:
-            phase = STANCE
-            s[STEP] += 1.0
-            s[TOUCHDOWN_X] = x + leg * math.sin(pitch + hip)
-            s[TD_ANGLE] = pitch + hip
-        elif phase == STANCE and t - s[PHASE_START] > MIN_STANCE and leg >= rest - LIFTOFF_MARGIN:
-            phase = ASCENT
-        if phase != s[PHASE]:
-            s[PHASE], s[PHASE_START] = phase, t
-        if s[TARGET] != s[TARGET]:
-            s[TARGET] = command.energy if command.energy is not None else apex_energy(z, xd, g)
-        angle, angle_rate = pitch + hip, pitchd + hipd
-        if phase == STANCE:
-            kp, kd = STANCE_GAINS
-            # lean against the pitch the next flight's leg swing will cause (about symmetric: -angle to +angle)
-            lean = self.swing_ratio * s[TD_ANGLE]
-            momentum = self._angular_momentum(xd, zd, pitchd, leg, legd, angle, angle_rate)
-            # the leg pushes the body toward the lean and the robot's angular momentum toward zero, so that
-            # the leg's swing in flight (which cannot change it) ends with the body near level
-            torque = kp * (pitch - lean) + kd * momentum / self.pitch_inertia
-            leg_force = slip.stiffness * max(rest - leg, 0.0)
-            reach = leg + p.foot_radius
-            torque_cap = FRICTION_SHARE * slip.friction * leg_force * reach
-            torque = max(-torque_cap, min(torque_cap, torque))
-            force = 0.0
-            if self.inject_energy and legd > 0.0:
-                energy = g * z + 0.5 * (xd * xd + zd * zd) + 0.5 * slip.stiffness * (rest - leg) ** 2 / slip.mass
-                # the foot, at rest on the ground, is jerked to the body's speed at liftoff: a plastic impact
-                liftoff_loss = 0.5 * self.foot_share * (xd * xd + zd * zd)
-                need = s[TARGET] + liftoff_loss + s[BIAS] - energy
-                force = slip.mass * need / max(rest - leg, 0.01)
-                force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
-        else:
-            step = int(s[STEP])
-            rate = 0.0   # the leg's absolute rate the hip's damping acts about
-            if phase == ASCENT and step < len(command.footholds):
-                # the planner chooses the next foothold at the apex, from the apex reached: a leg swung before
-                # then toward the last plan's next foothold swings back when the new plan moves it, and each
-                # swing turns the body (swing_ratio); the hops after such swings stray from the template's
-                target = self.raibert_angle(xd, xd)
-            elif step < len(command.footholds):
-                foothold = command.footholds[step]
-                ground = self._heights(command.terrain)(foothold)
-                ex, ez, exd = command.apex_errors[step] if step < len(command.apex_errors) else (0.0, 0.0, 0.0)
-                # (this branch is the descent, begun at the apex) the estimate's speed error at the apex carries
-                # into its position as the body flies on
-                ex += exd * (t - s[PHASE_START])
-                target = touchdown_angle(x + ex, z + ez, xd + exd, zd, foothold, ground,
-                                         slip.leg_length - p.foot_radius, p.foot_radius, g)
-                if step < len(command.angle_errors):
-                    target += command.angle_errors[step]
-                # the hip leads the leg by the swing back still to come and damps it about the swing's rate, so
-                # that the leg is already swinging back when the foot lands on the foothold
-                reach = slip.leg_length - p.foot_radius
-                rate = -LANDING_SWING_SHARE * (xd + exd) / (reach * math.cos(target))
-                target -= rate * min(time_to_ground(z + ez, zd, target, ground, reach, p.foot_radius, g),
-                                     LANDING_SWING_TIME)
-            else:
-                target = self.raibert_angle(xd, command.speed)
-            kp, kd = FLIGHT_GAINS
-            if phase == ASCENT and self._clearance(x, z, leg, angle, target, command.terrain) < CLEARANCE:
-                # the foot is leaving the ground: the leg retracts and swings back at the rate that keeps the foot
-                # over the ground it left
-                kp, kd = 0.0, LIFT_DAMPING
-                rate = -(xd + legd * math.sin(angle)) / (leg * math.cos(angle))
-            torque = kp * (target - angle) + kd * (rate - angle_rate)
-            goal = rest - RETRACT if phase == ASCENT else rest + 0.01
-            kp, kd = LEG_GAINS
-            force = kp * (goal - leg) - kd * legd - slip.stiffness * (rest - leg)
-            force = max(-p.leg_force_limit, min(p.leg_force_limit, force))
-        s[TORQUE] = motor_torque(torque, hipd, p)
-        s[FORCE] = force

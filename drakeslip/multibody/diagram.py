@@ -2,14 +2,13 @@
 controller, and either a fixed footstep command or a planner system, with an optional Meshcat visualizer."""
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
-from drakeslip.multibody.controller import DESCENT, FootholdCommand, HopperController
+from drakeslip.multibody.controller import RETRACT, FootholdCommand, HopperController, Phase
 from drakeslip.multibody.robot import HopperParts, RobotParams, StateLayout, add_hopper
 from drakeslip.multibody.terrain import add_terrain
 from drakeslip.state import ApexState
@@ -86,14 +85,12 @@ def set_apex_state(hd: HopperDiagram, root_context, apex: ApexState, leg_angle: 
     q = np.zeros(hd.plant.num_positions())
     v = np.zeros(hd.plant.num_velocities())
     nq = hd.plant.num_positions()
-    from drakeslip.multibody.controller import RETRACT
-
     q[list(hd.layout.q)] = (apex.x, apex.z, 0.0, leg_angle, p.rest_extension - RETRACT)
     v[[i - nq for i in hd.layout.v]] = (apex.xdot, 0.0, 0.0, 0.0, 0.0)
     hd.plant.SetPositions(plant_context, q)
     hd.plant.SetVelocities(plant_context, v)
     controller_context = hd.controller.GetMyMutableContextFromRoot(root_context)
-    controller_context.SetDiscreteState(hd.controller.initial_state(DESCENT, energy_bias))
+    controller_context.SetDiscreteState(hd.controller.initial_state(Phase.DESCENT, energy_bias))
 
 
 def set_command(hd: HopperDiagram, root_context, command: FootholdCommand) -> None:

@@ -20,16 +20,17 @@ from drakeslip.terrain import Terrain
 # xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
 LOSS_PRIOR = (0.10, 0.035)
 
-_built: dict = {}
+# The last diagram built, as (terrain, (robot, inject_energy, known), diagram): the terrain is held and compared by
+# identity (a map's cells are not compared at every call), the settings by value.
+_last_built: list = []
 
 
 def _diagram(terrain: Terrain, robot: RobotParams, inject_energy: bool, known: RobotParams | None = None):
     """The diagram for this terrain and robot, reused while they stay the same (building one takes ~0.1 s)."""
-    key = (id(terrain), robot, inject_energy, known)
-    if key not in _built:
-        _built.clear()
-        _built[key] = (build_diagram(terrain, robot, inject_energy=inject_energy, known=known), terrain)
-    return _built[key][0]
+    settings = (robot, inject_energy, known)
+    if not (_last_built and _last_built[0][0] is terrain and _last_built[0][1] == settings):
+        _last_built[:] = [(terrain, settings, build_diagram(terrain, robot, inject_energy=inject_energy, known=known))]
+    return _last_built[0][2]
 
 
 def loss_prior(xdot: float) -> float:
@@ -37,6 +38,7 @@ def loss_prior(xdot: float) -> float:
     return a + b * xdot * xdot
 
 
+# the hops, then ``drakeslip.rollout``'s errors and options as keywords with defaults
 def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None, *,
             sensed_terrain: Terrain | None = None, apex_errors=None, angle_errors=None, inject_energy: bool = True,
             trajectory: bool = False, max_time: float | None = None, known: RobotParams | None = None) -> HopLog:

@@ -17,15 +17,14 @@ from dataclasses import dataclass, field
 import numpy as np
 from pydrake.systems.framework import EventStatus
 
-from drakeslip.multibody.controller import (ASCENT, DESCENT, PHASE, STAMP, STANCE, STEP, TD_ANGLE, TOUCHDOWN_X,
-                                            Heights)
+from drakeslip.multibody.controller import Heights, Phase, Sensed
+from drakeslip.multibody.robot import model_geometry
 from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
 from drakeslip.units import units_of
 
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
 SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
-BODY_HALF = (0.20, 0.06)   # half length and half height of the body box (robot.sdf)
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
 
 
@@ -65,8 +64,10 @@ class HopLog:
 
 class HopMonitor:
     """A ``Simulator.set_monitor`` callback over a ``HopperDiagram``: logs hops into ``log`` and ends the run at a
-    failure or after ``max_apexes`` apexes (None: never). ``forward`` tells whether the command moves forward
-    (a STALL needs forward speed to be missing)."""
+    failure or after ``max_apexes`` apexes (None: never). ``command_footholds``, set by the caller, are the
+    footholds the robot is commanded to: a STALL at an apex needs one of them ahead."""
+
+    command_footholds: tuple = ()
 
     def __init__(self, hd, terrain: Terrain, root_context, max_apexes: int | None, trajectory: bool = False):
         self.hd, self.terrain, self.max_apexes, self.trajectory = hd, terrain, max_apexes, trajectory
@@ -77,61 +78,66 @@ class HopMonitor:
         self.phase = None
         self.phase_start = 0.0
         self.hop_pitch = 0.0
-        self.apexes = 0
         p = hd.params
         self.radius, self.bottom = p.foot_radius, p.bottom_extension
+        self.body_half = model_geometry(p).body_half   # half length and half height of the body box
         self.hop_seconds = units_of(p.slip).hop_seconds   # a phase longer than this is a STALL
-        self.q_index = list(hd.layout.q)
-        self.v_index = list(hd.layout.v)
+        self.sensed_index = list(hd.layout.q) + list(hd.layout.v)
 
     def __call__(self, root_context):
         t = root_context.get_time()
         full = self.hd.plant.get_state_output_port().Eval(self.plant_context)
-        (x, z, pitch, hip, leg), (xd, zd, *_) = full[self.q_index], full[self.v_index]
-        c = self.controller_context.get_discrete_state(self.hd.controller.control_state).get_value()
+        m = Sensed(full[self.sensed_index])
+        c = self.hd.controller.control_state_of(self.controller_context)
         log = self.log
         if self.trajectory:
             log.times.append(t)
             log.positions.append(full[:self.hd.plant.num_positions()].copy())
-        log.max_pitch = max(log.max_pitch, abs(pitch))
-        self.hop_pitch = max(self.hop_pitch, abs(pitch))
-        phase = c[PHASE]
+        log.max_pitch = max(log.max_pitch, abs(m.pitch))
+        self.hop_pitch = max(self.hop_pitch, abs(m.pitch))
+        phase = Phase(int(c.phase))
         if phase != self.phase:
-            if phase == STANCE:
-                log.footholds.append(float(c[TOUCHDOWN_X]))
-                log.leg_angles.append(float(c[TD_ANGLE]))
+            if phase == Phase.STANCE:
+                log.footholds.append(float(c.touchdown_x))
+                log.leg_angles.append(float(c.touchdown_angle))
                 log.touchdown_times.append(t)
-                log.aimed.append((int(c[STAMP]), int(c[STEP]) - 1))   # the touchdown counted itself in STEP
-            elif self.phase == STANCE:
+                log.aimed.append((int(c.stamp), int(c.step) - 1))   # the touchdown counted itself in its step
+            elif self.phase == Phase.STANCE:
                 log.liftoff_times.append(t)
-            elif phase == DESCENT and self.phase == ASCENT:
-                log.apexes.append(ApexState(float(x), float(z), float(xd)))
+            elif phase == Phase.DESCENT and self.phase == Phase.ASCENT:
+                log.apexes.append(ApexState(float(m.x), float(m.z), float(m.xd)))
                 log.hop_pitch.append(self.hop_pitch)
                 self.hop_pitch = 0.0
             self.phase, self.phase_start = phase, t
-        failure = self._failure(t, x, z, xd, zd, pitch, hip, leg, phase, c)
+        failure = self._body_failure(m) or self._foot_failure(t, m, phase, c) or self._stall(t, m, phase)
         if failure is not None:
-            log.failure = RobotFailure(failure[0], failure[1], t, float(x), len(log.footholds),
-                                       (float(x), float(z), float(xd), float(zd)))
+            log.failure = RobotFailure(failure[0], failure[1], t, float(m.x), len(log.footholds),
+                                       (float(m.x), float(m.z), float(m.xd), float(m.zd)))
             return EventStatus.ReachedTermination(self.hd.diagram, f"{failure[0].name}: {failure[1]}")
         if self.max_apexes is not None and len(log.apexes) >= self.max_apexes:
             return EventStatus.ReachedTermination(self.hd.diagram, "commands done")
         return EventStatus.Succeeded()
 
-    def _failure(self, t, x, z, xd, zd, pitch, hip, leg, phase, c):
-        terrain, height = self.terrain, self.height
-        if abs(pitch) > PITCH_LIMIT:
-            return FailureMode.BODY_COLLISION, f"fall: the body pitched to {pitch:+.2f} rad"
-        cp, sp = math.cos(pitch), math.sin(pitch)
+    def _body_failure(self, m: Sensed):
+        """A fall: the body pitched past PITCH_LIMIT, or a corner of its box below the ground."""
+        if abs(m.pitch) > PITCH_LIMIT:
+            return FailureMode.BODY_COLLISION, f"fall: the body pitched to {m.pitch:+.2f} rad"
+        cp, sp = math.cos(m.pitch), math.sin(m.pitch)
+        half_length, half_height = self.body_half
         for u, w in ((1, 1), (1, -1), (-1, 1), (-1, -1)):
             # the body box's corners: body x turns toward z with positive pitch
-            cx = x + u * BODY_HALF[0] * cp - w * BODY_HALF[1] * sp
-            cz = z + u * BODY_HALF[0] * sp + w * BODY_HALF[1] * cp
-            if cz < height(cx):
+            cx = m.x + u * half_length * cp - w * half_height * sp
+            cz = m.z + u * half_length * sp + w * half_height * cp
+            if cz < self.height(cx):
                 return FailureMode.BODY_COLLISION, f"fall: the body touched the ground at x={cx:.2f}"
-        angle = pitch + hip
-        fx, fz = x + leg * math.sin(angle), z - leg * math.cos(angle) - self.radius
-        if leg <= self.bottom + 1e-3:
+        return None
+
+    def _foot_failure(self, t, m: Sensed, phase: Phase, c):
+        """The leg at its bottom-out stop, the foot in a step's face or a ditch, a trip or a slip."""
+        terrain, height = self.terrain, self.height
+        angle = m.pitch + m.hip
+        fx, fz = m.x + m.leg * math.sin(angle), m.z - m.leg * math.cos(angle) - self.radius
+        if m.leg <= self.bottom + 1e-3:
             return FailureMode.BOTTOM_OUT, "the leg reached its bottom-out stop"
         reach = self.radius - 2e-3   # the ball's side, less the contact's compliance
         around = max(height(fx - reach), height(fx + reach))
@@ -142,23 +148,23 @@ class HopMonitor:
             rim = _rim_below(terrain, fx)
             if fz < rim - 0.02:
                 return FailureMode.FOOT_COLLISION, f"the foot went into a ditch at x={fx:.2f}"
-        if phase == ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
+        if phase == Phase.ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
             return FailureMode.TRIP, f"the swinging foot caught the ground at x={fx:.2f}"
         # the ball rolls as the leg turns over it: its centre moves r (angle at touchdown - angle) with no slip
-        slide = fx - c[TOUCHDOWN_X] - self.radius * (c[TD_ANGLE] - angle)
-        if phase == STANCE and abs(slide) > SLIP_DISTANCE:
+        slide = fx - c.touchdown_x - self.radius * (c.touchdown_angle - angle)
+        if phase == Phase.STANCE and abs(slide) > SLIP_DISTANCE:
             return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
-        if t - self.phase_start > self.hop_seconds:
-            return FailureMode.STALL, "no hop completed"
-        if phase == DESCENT and self.phase_start == t and xd <= 0.0 and self._target_ahead(x, c):
-            return FailureMode.STALL, f"no forward speed at the apex (xdot={xd:+.2f} m/s)"
         return None
 
-    def _target_ahead(self, x, c) -> bool:
+    def _stall(self, t, m: Sensed, phase: Phase):
+        """A phase longer than ``hop_seconds``, or an apex with no forward speed toward a foothold ahead."""
+        if t - self.phase_start > self.hop_seconds:
+            return FailureMode.STALL, "no hop completed"
         footholds = self.command_footholds
-        return bool(footholds) and footholds[-1] > x + 0.05
-
-    command_footholds: tuple = ()
+        if phase == Phase.DESCENT and self.phase_start == t and m.xd <= 0.0 and footholds \
+                and footholds[-1] > m.x + 0.05:
+            return FailureMode.STALL, f"no forward speed at the apex (xdot={m.xd:+.2f} m/s)"
+        return None
 
 
 def _rim_below(terrain: Terrain, x: float) -> float:

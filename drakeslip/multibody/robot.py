@@ -3,8 +3,9 @@
 The SLIP template is a point mass on a massless spring leg. The robot it stands for has a body with a pitch
 inertia, a leg swung by a torque- and speed-limited hip motor, a telescoping lower leg on the template's spring
 between a hard stop at the rest length and a bottom-out stop at the template's ``min_leg_length``, and an unsprung
-foot that makes compliant, friction-limited contact. ``RobotParams`` holds every value (defaults are the SDF's);
-``add_hopper`` writes them into the SDF before parsing it and adds the planar floating base (x, z, pitch).
+foot that makes compliant, friction-limited contact. ``RobotParams`` holds the values a robot varies (defaults are
+the SDF's); ``add_hopper`` writes them into the SDF before parsing it and adds the planar floating base (x, z,
+pitch). ``model_geometry`` reads from the same SDF what the controller and the failure monitor know of the rest.
 
 Coordinates: world x forward, z up; the hopper moves in the x-z plane. The pitch and the hip angle turn about
 -y, so that a positive pitch lifts the nose and a positive absolute leg angle (pitch + hip) puts the foot ahead
@@ -12,6 +13,7 @@ of the hip, the SLIP's leg-angle convention (``drakeslip.state``).
 """
 from __future__ import annotations
 
+import functools
 import math
 import xml.etree.ElementTree as ET
 from dataclasses import asdict, dataclass, field
@@ -121,8 +123,8 @@ def _set(root, path: str, value) -> None:
     node.text = repr(float(value)) if not isinstance(value, str) else value
 
 
-def hopper_sdf(params: RobotParams) -> str:
-    """The packaged SDF with ``params`` written into it."""
+def _model_links(params: RobotParams):
+    """The packaged SDF's tree with ``params`` written into it, and its links by name."""
     text = resources.files("drakeslip.multibody").joinpath(SDF_FILE).read_text()
     root = ET.fromstring(text.replace("drake:", "drake__"))   # the drake: prefix has no declared namespace
     model = root.find("model")
@@ -146,7 +148,36 @@ def hopper_sdf(params: RobotParams) -> str:
     _set(leg, "axis/limit/upper", params.rest_extension)
     _set(leg, "axis/limit/effort", params.leg_force_limit)
     _set(leg, "axis/dynamics/damping", params.leg_damping)
+    return root, links
+
+
+def hopper_sdf(params: RobotParams) -> str:
+    """The packaged SDF with ``params`` written into it."""
+    root, _ = _model_links(params)
     return ET.tostring(root, encoding="unicode").replace("drake__", "drake:")
+
+
+@dataclass(frozen=True)
+class ModelGeometry:
+    """What the controller and the failure monitor know of the robot beyond ``RobotParams``, read from its model
+    file (``hopper_sdf``): ``leg_com`` [m], the upper leg's centre of mass below the hip; ``leg_inertia``
+    [kg m^2], the upper leg's pitch inertia about it; ``body_half`` [m], the half length and half height of the
+    body box."""
+
+    leg_com: float
+    leg_inertia: float
+    body_half: tuple
+
+
+@functools.lru_cache(maxsize=16)
+def model_geometry(params: RobotParams) -> ModelGeometry:
+    """The ``ModelGeometry`` of the robot ``params`` builds."""
+    _, links = _model_links(params)
+    leg = links["leg"].find("inertial")
+    size = [float(v) for v in links["body"].find("visual[@name='body_visual']/geometry/box/size").text.split()]
+    return ModelGeometry(leg_com=-float(leg.find("pose").text.split()[2]),
+                         leg_inertia=float(leg.find("inertia/iyy").text),
+                         body_half=(size[0] / 2, size[2] / 2))   # x is the body's length, z its height
 
 
 @dataclass(frozen=True)
