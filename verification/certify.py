@@ -32,7 +32,8 @@ def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: s
                              "cases": [case]})
     body = SlipParams() if hopper is None else params_from_fields(hopper, "the task's hopper")
     c, params = suite.cases[0], body.with_friction(friction)
-    plan = _WORKER["planners"][label].plan(c.apex, c.terrain.perceived(c.apex.x, *units_of(params).window), goal_x, params)
+    perceived = c.terrain.perceived(c.apex.x, *units_of(params).window)
+    plan = _WORKER["planners"][label].plan(c.apex, perceived, goal_x, params)
     record = {"label": label, "id": c.id, "kind": None, "hop": None}
     if not plan.success:
         return {**record, "verdict": "no plan", "reason": plan.message, "hops": 0}

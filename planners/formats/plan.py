@@ -4,10 +4,11 @@ stress-tested later without the planner, the suite or the random terrain generat
 A file holds everything the plan's execution depends on: the initial apex, the whole terrain (cell heights,
 not a generator seed, so a change to a generator cannot silently change a stored plan), the hopper (its
 parameters, with the ground's friction, and ``"hopper"``, the record ``NamedHopper.to_record`` of the hopper the plan
-was made for: its name, parameters and hopper file's digest), the goal, and the plan itself: footholds, leg angles and predicted apexes, and ``target_x``, the x its
-last foothold reaches by the plan's own account: the planner's target when the footholds pass it, else the last
-foothold (a plan that stops where the robot's view ends, or plans one step ahead). A planner that does not
-predict angles or apexes (``lstm`` gives only the first angle) leaves NaN there, stored as ``null``.
+was made for: its name, parameters and hopper file's digest), the goal, and the plan itself: footholds, leg angles
+and predicted apexes, and ``target_x``, the x its last foothold reaches by the plan's own account: the planner's
+target when the footholds pass it, else the last foothold (a plan that stops where the robot's view ends, or plans
+one step ahead). A planner that does not predict angles or apexes (``lstm`` gives only the first angle) leaves NaN
+there, stored as ``null``.
 
 A file whose fields disagree with each other, or hold a value outside its physical bound (``drakeslip.bounds``),
 is malformed (ValueError naming the field): lengths that differ, a foothold two leg reaches or more behind the one
@@ -72,9 +73,10 @@ class PlanRecord:
         back = np.flatnonzero(np.diff(self.footholds) <= -reach)
         if back.size:
             i = int(back[0]) + 1
-            raise ValueError(f"footholds[{i}] = {self.footholds[i]:g} is {self.footholds[i - 1] - self.footholds[i]:g} m "
-                             f"behind footholds[{i - 1}] = {self.footholds[i - 1]:g}: a hopper moving forward steps "
-                             f"back by less than two leg reaches (2 L0 sin(atan mu) = {reach:.3g} m)")
+            raise ValueError(f"footholds[{i}] = {self.footholds[i]:g} is "
+                             f"{self.footholds[i - 1] - self.footholds[i]:g} m behind footholds[{i - 1}] = "
+                             f"{self.footholds[i - 1]:g}: a hopper moving forward steps back by less than two leg "
+                             f"reaches (2 L0 sin(atan mu) = {reach:.3g} m)")
         ahead = np.flatnonzero(np.diff(self.apexes[:, 0]) <= 0)   # NaN rows (no prediction) compare False
         if ahead.size:
             i = int(ahead[0]) + 1

@@ -131,9 +131,9 @@ def suite_scales(params: SlipParams, heights=PAPER_HEIGHTS, speeds=PAPER_SPEEDS)
     if mine == papers:   # the paper's hopper: its own stride, whatever it is
         ditch = 1.0
     elif stride(PAPER, papers) == 0.0:
-        raise ValueError(f"no start of heights {list(heights)} m and speeds {list(speeds)} m/s takes the paper's hopper "
-                         "two hops on flat ground (its spring bottoms out, or it stalls): the suite's ditch widths "
-                         "and course, scaled by that stride, have nothing to scale")
+        raise ValueError(f"no start of heights {list(heights)} m and speeds {list(speeds)} m/s takes the paper's "
+                         "hopper two hops on flat ground (its spring bottoms out, or it stalls): the suite's ditch "
+                         "widths and course, scaled by that stride, have nothing to scale")
     else:
         ditch = min(1.0, stride(params, mine) / stride(PAPER, papers))
     return SuiteScales(units.length, speed, units.length * climb, factors, units.length * ditch)
