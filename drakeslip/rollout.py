@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Callable, NamedTuple, Sequence
 
 import numpy as np
 
@@ -51,7 +51,7 @@ class Rollout:
         return float(self.end_state[0]) if self.end_state is not None else math.nan
 
 
-# the commands, their errors and each backend's options as keywords with defaults: one entry for every backend
+# many parameters: one public entry for every backend: the commands, their errors, each backend's options as keywords
 def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, footholds: Sequence[float] | None = None,
             leg_angles: Sequence[float] | Callable | None = None, controller=None, backend: str = "drake",
             max_hops: int | None = None, angle_errors=None, apex_errors=None, sensed_terrain: Terrain | None = None,
@@ -79,7 +79,7 @@ def rollout(apex, terrain: Terrain, params: SlipParams | None = None, *, foothol
                     max_time=max_time, model=model)[0]
 
 
-# ``rollout``'s keywords, batched
+# many parameters: ``rollout``'s keyword options, each with its default, for a batch of starts
 def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, leg_angles=None, controller=None,
              backend: str = "fast", max_hops: int | None = None, angle_errors=None, apex_errors=None,
              sensed_terrain: Terrain | None = None, log: bool = False, integrator=None,
@@ -99,11 +99,20 @@ def rollouts(starts, terrain: Terrain, params: SlipParams, *, footholds=None, le
         raise ValueError(f"a rollout needs at least one hop to command, got {hops}")
     if backend == "fast":
         return _fast(starts, terrain, params, command, hops)
-    if backend == "multibody":
-        return [_multibody(i, start, terrain, params, command, hops, log, max_time, model)
-                for i, start in enumerate(starts)]
-    return [_drake(i, start, terrain, params, command, hops, log, integrator, max_time)
-            for i, start in enumerate(starts)]
+    options = _SimulatorOptions(log, integrator, max_time, model)
+    run = _multibody if backend == "multibody" else _drake
+    return [run(i, start, terrain, params, command, hops, options) for i, start in enumerate(starts)]
+
+
+class _SimulatorOptions(NamedTuple):
+    """The options of ``rollouts`` for the simulator backends: keep the trajectory (``log``), Drake's
+    ``integrator``, the run's ``max_time`` [s], and the hopper ``model`` the multibody robot's controller is built
+    for (None: the true one)."""
+
+    log: bool
+    integrator: object
+    max_time: float | None
+    model: SlipParams | None
 
 
 class _Commands:
@@ -196,8 +205,8 @@ def _fast(starts, terrain, params, command: _Commands, hops) -> list[Rollout]:
     return records
 
 
-# one draw of ``rollouts``: its index, start and the options this backend takes
-def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_time, known) -> Rollout:
+def _multibody(draw, start, terrain, params, command: _Commands, hops, options: _SimulatorOptions) -> Rollout:
+    """One draw of ``rollouts`` (its index and start) on the multibody robot."""
     from drakeslip.multibody.execute import execute
     from drakeslip.multibody.robot import RobotParams
 
@@ -208,17 +217,18 @@ def _multibody(draw, start, terrain, params, command: _Commands, hops, log, max_
     footholds = command.footholds[:hops]
     apex_errors = None if command.apex_errors is None else command.apex_errors[draw]
     angle_errors = None if command.angle_errors is None else command.angle_errors[draw]
+    known = options.model
     hops = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
-                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=log, max_time=max_time,
-                   known=None if known is None else RobotParams(slip=known))
+                   apex_errors=apex_errors, angle_errors=angle_errors, trajectory=options.log,
+                   max_time=options.max_time, known=None if known is None else RobotParams(slip=known))
     failure = hops.failure
     return Rollout(list(hops.footholds), list(hops.apexes), list(hops.leg_angles),
                    None if failure is None else failure.mode, -1 if failure is None else failure.hop,
-                   None if failure is None else failure.state, hops if log else None)
+                   None if failure is None else failure.state, hops if options.log else None)
 
 
-# one draw of ``rollouts``: its index, start and the options this backend takes
-def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrator, max_time) -> Rollout:
+def _drake(draw, start, terrain, params, command: _Commands, hops, options: _SimulatorOptions) -> Rollout:
+    """One draw of ``rollouts`` (its index and start) on the Drake simulator."""
     from drakeslip.simulation import simulate
 
     if start[1] <= terrain.height_at(start[0]):
@@ -227,9 +237,11 @@ def _drake(draw, start, terrain, params, command: _Commands, hops, log, integrat
     def policy(apex, hop):
         return None if hops is not None and hop >= hops else command.one(draw, hop, apex)
 
+    max_time = options.max_time
     if max_time is None and hops is not None:   # each hop ends within the per-hop limit, so n hops within n + 1
         max_time = units_of(params).hop_seconds * (hops + 1)
-    sim = simulate(start, policy, terrain, params, max_hops=hops, max_time=max_time, log=log, integrator=integrator)
+    sim = simulate(start, policy, terrain, params, max_hops=hops, max_time=max_time, log=options.log,
+                   integrator=options.integrator)
     return Rollout(list(sim.footholds), sim.apexes, list(sim.leg_angles), sim.failure, sim.failed_hop,
                    tuple(sim.failure_event.state) if sim.failure_event is not None else None,
-                   sim if log else None)
+                   sim if options.log else None)

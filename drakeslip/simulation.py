@@ -84,6 +84,7 @@ def _policy_from(leg_angles) -> Callable:
     return lambda apex, hop: angles[hop] if hop < len(angles) else None
 
 
+# many parameters: the options of a public entry point (limits, integrator, log, added systems), each with a default
 def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | None = None,
              params: SlipParams | None = None, max_hops: int | None = None, max_time: float | None = None,
              max_hop_time: float | None = None, integrator: IntegratorConfig | None = None,
@@ -114,8 +115,36 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     if max_hops is not None and max_hops < 1:
         raise ValueError(f"max_hops must be at least 1, got {max_hops}")
     used_angles: list[float] = []
-    user_policy = _policy_from(leg_angles)
+    policy = _counted_policy(_policy_from(leg_angles), max_hops, used_angles)
+    diagram, hopper, logs, when_done = _hopper_diagram(params, terrain, policy, log, add_to)
 
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    hopper_context = hopper.GetMyMutableContextFromRoot(context)
+    hopper.set_apex(hopper_context, apex)
+    ResetIntegratorFromFlags(simulator, integrator.scheme, integrator.max_step)
+    context.SetAccuracy(integrator.accuracy)
+    timed_out = [False]
+    simulator.set_monitor(_hop_monitor(hopper, max_hop_time, timed_out))
+    advance(simulator, max_time, lambda: f"{Mode(int(hopper.hybrid(hopper_context).mode)).name}, state "
+                                         f"({', '.join(f'{v:g}' for v in hopper.body(hopper_context)[:])})")
+    if callable(when_done):
+        when_done(simulator)
+
+    events, failure_event = _failure_of(hopper, hopper_context, context.get_time(), timed_out[0])
+    if logs is not None:
+        slog, hlog = logs[0].FindLog(context), logs[1].FindLog(context)
+        times, states, hybrid = slog.sample_times(), slog.data().T.copy(), hlog.data().T.copy()
+    else:
+        times, states, hybrid = np.zeros(0), np.zeros((0, 4)), np.zeros((0, len(HybridState._fields)))
+    return SimulationResult(times=times, states=states, hybrid=hybrid, events=events,
+                            failure=failure_event.failure if failure_event else None, failure_event=failure_event,
+                            integrator_steps=simulator.get_integrator().get_num_steps_taken(),
+                            params=params, terrain=terrain, leg_angles=used_angles)
+
+
+def _counted_policy(user_policy: Callable, max_hops: int | None, used_angles: list) -> Callable:
+    """``user_policy`` stopped after ``max_hops`` hops, appending each hop's angle to ``used_angles`` once."""
     def policy(a, hop):
         if max_hops is not None and hop >= max_hops:
             return None
@@ -124,26 +153,28 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
             used_angles.append(float(angle))
         return angle
 
+    return policy
+
+
+def _hopper_diagram(params: SlipParams, terrain: Terrain, policy: Callable, log: bool, add_to: Callable | None):
+    """(diagram, hopper, (state logger, hybrid logger) or None, what ``add_to`` returned): the hopper driven by
+    ``policy``, its outputs logged when ``log``, and the caller's systems."""
     builder = DiagramBuilder()
     hopper = builder.AddSystem(SlipHopper(params, terrain))
     controller = builder.AddSystem(ApexPolicy(policy))
     builder.Connect(hopper.GetOutputPort("state"), controller.get_input_port(0))
     builder.Connect(hopper.GetOutputPort("hybrid"), controller.get_input_port(1))
     builder.Connect(controller.get_output_port(0), hopper.get_input_port(0))
-    state_log = LogVectorOutput(hopper.GetOutputPort("state"), builder) if log else None
-    hybrid_log = LogVectorOutput(hopper.GetOutputPort("hybrid"), builder) if log else None
+    logs = (LogVectorOutput(hopper.GetOutputPort("state"), builder),
+            LogVectorOutput(hopper.GetOutputPort("hybrid"), builder)) if log else None
     when_done = add_to(builder, hopper) if add_to is not None else None
-    diagram = builder.Build()
+    return builder.Build(), hopper, logs, when_done
 
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    hopper_context = hopper.GetMyMutableContextFromRoot(context)
-    hopper.set_apex(hopper_context, apex)
-    ResetIntegratorFromFlags(simulator, integrator.scheme, integrator.max_step)
-    context.SetAccuracy(integrator.accuracy)
 
+def _hop_monitor(hopper: SlipHopper, max_hop_time: float, timed_out: list) -> Callable:
+    """The simulator's monitor: ends the run when the hopper fails or halts, or (setting ``timed_out[0]``) when a
+    hop has lasted more than ``max_hop_time`` [s] since the last liftoff."""
     last_liftoff = [0.0, 0]
-    timed_out = [False]
 
     def monitor(root_context):
         c = hopper.GetMyContextFromRoot(root_context)
@@ -157,31 +188,20 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
             return EventStatus.ReachedTermination(hopper, "hop time-out")
         return EventStatus.DidNothing()
 
-    simulator.set_monitor(monitor)
-    advance(simulator, max_time, lambda: f"{Mode(int(hopper.hybrid(hopper_context).mode)).name}, state "
-                                         f"({', '.join(f'{v:g}' for v in hopper.body(hopper_context)[:])})")
-    if callable(when_done):
-        when_done(simulator)
+    return monitor
 
+
+def _failure_of(hopper: SlipHopper, hopper_context, time: float, timed_out: bool) -> tuple:
+    """(the event log, its first failure event or None): a run the monitor timed out at ``time`` without a failure
+    gets a TIMEOUT event, appended to the log."""
     events = hopper.event_log(hopper_context)
-    h = hopper.hybrid(hopper_context)
     failure_event = next((e for e in events if e.kind == "failure"), None)
-    failure = failure_event.failure if failure_event else None
-    if failure is None and timed_out[0]:
-        s = hopper.body(hopper_context)
-        failure = FailureMode.TIMEOUT
-        failure_event = HybridEvent("failure", context.get_time(), tuple(float(v) for v in s[:]), None,
-                                    float(h.leg_angle), failure)
+    if failure_event is None and timed_out:
+        h, s = hopper.hybrid(hopper_context), hopper.body(hopper_context)
+        failure_event = HybridEvent("failure", time, tuple(float(v) for v in s[:]), None, float(h.leg_angle),
+                                    FailureMode.TIMEOUT)
         events = events + (failure_event,)
-    if log:
-        slog, hlog = state_log.FindLog(context), hybrid_log.FindLog(context)
-        times, states, hybrid = slog.sample_times(), slog.data().T.copy(), hlog.data().T.copy()
-    else:
-        times, states, hybrid = np.zeros(0), np.zeros((0, 4)), np.zeros((0, len(HybridState._fields)))
-    return SimulationResult(times=times, states=states, hybrid=hybrid, events=events, failure=failure,
-                            failure_event=failure_event,
-                            integrator_steps=simulator.get_integrator().get_num_steps_taken(),
-                            params=params, terrain=terrain, leg_angles=used_angles)
+    return events, failure_event
 
 
 def advance(simulator, end: float, where: Callable[[], str]) -> None:

@@ -22,7 +22,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import EventStatus, LeafSystem
 
 from drakeslip import ApexState, SlipParams
-from drakeslip.multibody.controller import FootholdCommand, touchdown_angle
+from drakeslip.multibody.controller import FootholdCommand, HeldLeg, touchdown_angle
 from drakeslip.multibody.diagram import HopperDiagram, build_diagram, set_apex_state
 from drakeslip.multibody.execute import loss_prior
 from drakeslip.multibody.failures import HopMonitor
@@ -211,7 +211,7 @@ def simulate_closed_loop(hd: HopperDiagram, case, goal_x: float, max_hops: int, 
     first = hd.planner.start(hd.planner.GetMyMutableContextFromRoot(context), apex)
     angle = hd.controller.raibert_angle(apex.xdot, first.speed) if not first.footholds else touchdown_angle(
         apex.x, apex.z, apex.xdot, 0.0, first.footholds[0], first.terrain.height_at(first.footholds[0]),
-        robot.rest_extension, robot.foot_radius, robot.slip.gravity)
+        HeldLeg(robot.rest_extension, robot.foot_radius, robot.slip.gravity))
     set_apex_state(hd, context, apex, angle, loss_prior(apex.xdot))
     monitor = _GoalMonitor(hd, case.terrain, context, max_hops, goal_x, trajectory)
     simulator.set_monitor(monitor)

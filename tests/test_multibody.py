@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import drakeslip as ds
-from drakeslip.multibody.controller import apex_energy, touchdown_angle
+from drakeslip.multibody.controller import HeldLeg, apex_energy, touchdown_angle
 from drakeslip.multibody.robot import RobotParams, hopper_sdf
 from drakeslip.multibody.terrain import terrain_runs
 
@@ -65,7 +65,7 @@ def test_the_controller_and_the_monitor_take_the_robots_geometry_from_its_model(
 
 
 def test_the_touchdown_angle_lands_the_foot_on_the_foothold():
-    angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, 0.47, 0.03, 9.81)
+    angle = touchdown_angle(0.0, 0.8, 1.5, 0.0, 0.6, 0.0, HeldLeg(0.47, 0.03, 9.81))
     t = np.sqrt(2 * (0.8 - 0.47 * np.cos(angle) - 0.03) / 9.81)
     assert 1.5 * t + 0.47 * np.sin(angle) == pytest.approx(0.6, abs=1e-6)
 

@@ -26,6 +26,7 @@ import enum
 import functools
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 from pydrake.common.containers import namedview
@@ -124,24 +125,33 @@ def apex_energy(z: float, xdot: float, gravity: float) -> float:
     return gravity * z + 0.5 * xdot * xdot
 
 
-def time_to_ground(z, zdot, angle, ground, reach, foot_radius, gravity) -> float:
-    """Seconds until the foot ball (``reach`` from the hip) held at ``angle`` reaches ``ground`` on the body's
-    ballistic path from height ``z`` rising at ``zdot``."""
+class HeldLeg(NamedTuple):
+    """A leg held at a fixed angle in flight: the foot ball's centre ``reach`` [m] from the hip, the ball's
+    ``foot_radius`` [m], and the ``gravity`` [m/s^2] the body falls under."""
+
+    reach: float
+    foot_radius: float
+    gravity: float
+
+
+def time_to_ground(z, zdot, angle, ground, leg: HeldLeg) -> float:
+    """Seconds until the foot ball of ``leg`` held at ``angle`` reaches ``ground`` on the body's ballistic path
+    from height ``z`` rising at ``zdot``."""
+    reach, foot_radius, gravity = leg
     drop = z - reach * math.cos(angle) - foot_radius - ground
     disc = zdot * zdot + 2.0 * gravity * drop
     return (zdot + math.sqrt(disc)) / gravity if disc > 0 else max(zdot / gravity, 0.0)
 
 
-# nine plain floats: the body state, the target and the robot's three values, called at every control period
-def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, reach, foot_radius, gravity) -> float:
+def touchdown_angle(x, z, xdot, zdot, foothold_x, ground, leg: HeldLeg) -> float:
     """The absolute leg angle (SLIP convention) that, held from the body state (x, z, xdot, zdot) on its
-    ballistic path, lands the foot ball's centre (``reach`` from the hip) above ``foothold_x`` when its bottom
+    ballistic path, lands the foot ball's centre (``leg.reach`` from the hip) above ``foothold_x`` when its bottom
     reaches ``ground``; clipped to [-1, 1] rad. Bisection: the landing x grows with the angle."""
     lo, hi = -1.0, 1.0
     for _ in range(30):
         mid = 0.5 * (lo + hi)
-        t = time_to_ground(z, zdot, mid, ground, reach, foot_radius, gravity)
-        if x + xdot * t + reach * math.sin(mid) < foothold_x:
+        t = time_to_ground(z, zdot, mid, ground, leg)
+        if x + xdot * t + leg.reach * math.sin(mid) < foothold_x:
             lo = mid
         else:
             hi = mid
@@ -341,15 +351,14 @@ class HopperController(LeafSystem):
         # (this branch is the descent, begun at the apex) the estimate's speed error at the apex carries
         # into its position as the body flies on
         ex += exd * (t - s.phase_start)
-        g, reach = p.slip.gravity, p.slip.leg_length - p.foot_radius
-        target = touchdown_angle(m.x + ex, m.z + ez, m.xd + exd, m.zd, foothold, ground, reach, p.foot_radius, g)
+        leg = HeldLeg(p.slip.leg_length - p.foot_radius, p.foot_radius, p.slip.gravity)
+        target = touchdown_angle(m.x + ex, m.z + ez, m.xd + exd, m.zd, foothold, ground, leg)
         if step < len(command.angle_errors):
             target += command.angle_errors[step]
         # the hip leads the leg by the swing back still to come and damps it about the swing's rate, so
         # that the leg is already swinging back when the foot lands on the foothold
-        rate = -LANDING_SWING_SHARE * (m.xd + exd) / (reach * math.cos(target))
-        target -= rate * min(time_to_ground(m.z + ez, m.zd, target, ground, reach, p.foot_radius, g),
-                             LANDING_SWING_TIME)
+        rate = -LANDING_SWING_SHARE * (m.xd + exd) / (leg.reach * math.cos(target))
+        target -= rate * min(time_to_ground(m.z + ez, m.zd, target, ground, leg), LANDING_SWING_TIME)
         return target, rate
 
     def _angular_momentum(self, pitchd, leg, legd, angle, angle_rate) -> float:

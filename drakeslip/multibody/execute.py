@@ -38,7 +38,7 @@ def loss_prior(xdot: float) -> float:
     return a + b * xdot * xdot
 
 
-# the hops, then ``drakeslip.rollout``'s errors and options as keywords with defaults
+# many parameters: the hops, then ``drakeslip.rollout``'s errors and options as keywords, each with a default
 def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None, *,
             sensed_terrain: Terrain | None = None, apex_errors=None, angle_errors=None, inject_energy: bool = True,
             trajectory: bool = False, max_time: float | None = None, known: RobotParams | None = None) -> HopLog:
@@ -97,10 +97,9 @@ def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex
 
 
 def _first_angle(apex: ApexState, footholds, terrain: Terrain, robot: RobotParams) -> float:
-    from drakeslip.multibody.controller import touchdown_angle
+    from drakeslip.multibody.controller import HeldLeg, touchdown_angle
 
     if not footholds:
         return 0.0
-    reach = robot.rest_extension
-    return touchdown_angle(apex.x, apex.z, apex.xdot, 0.0, footholds[0], terrain.height_at(footholds[0]), reach,
-                           robot.foot_radius, robot.slip.gravity)
+    leg = HeldLeg(robot.rest_extension, robot.foot_radius, robot.slip.gravity)
+    return touchdown_angle(apex.x, apex.z, apex.xdot, 0.0, footholds[0], terrain.height_at(footholds[0]), leg)

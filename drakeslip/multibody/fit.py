@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from drakeslip.multibody.controller import touchdown_angle
+from drakeslip.multibody.controller import HeldLeg, touchdown_angle
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
@@ -51,7 +51,8 @@ def predict(hops: list[Hop], params: SlipParams) -> np.ndarray:
     from drakeslip.stepmap import step_batch
 
     rows = np.array([(h.apex[0], h.apex[1] - h.height, h.apex[2]) for h in hops], dtype=np.float64).reshape(-1, 3)
-    angles = np.array([touchdown_angle(x, z, xd, 0.0, h.foothold, 0.0, params.leg_length, 0.0, params.gravity)
+    point_foot = HeldLeg(params.leg_length, 0.0, params.gravity)   # the template's leg
+    angles = np.array([touchdown_angle(x, z, xd, 0.0, h.foothold, 0.0, point_foot)
                        for (x, z, xd), h in zip(rows, hops)])
     ok = rows[:, 1] > params.leg_length * np.cos(angles) + 1e-3
     out = np.full((len(hops), 3), np.nan)

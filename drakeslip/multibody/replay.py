@@ -88,7 +88,7 @@ def _scene(log: HopLog, model: RobotModel, terrain: Terrain, planned_footholds, 
                  0.05 * model.robot.slip.leg_length / 0.5, HEADROOM)
 
 
-# the run and its plans, then the animation's keywords as ``drakeslip.meshcat_replay.draw_replay`` takes them
+# many parameters: the run and its plan, then the animation's keywords as ``meshcat_replay.draw_replay`` takes them
 def draw_robot_replay(meshcat, log: HopLog, terrain: Terrain, planned_footholds=None, predicted_apexes=None,
                       model: RobotModel | None = None, *, fps: float = 30.0, speed: float = 1.0,
                       follow: bool = True) -> int:
@@ -117,7 +117,7 @@ def draw_robot_replay(meshcat, log: HopLog, terrain: Terrain, planned_footholds=
     return animate(meshcat, scene, robot_at, shown_from, root, fps=fps, speed=speed, follow=follow)
 
 
-# ``draw_robot_replay``'s, with the page's path, title and robot
+# many parameters: ``draw_robot_replay``'s, with the page's path, title and robot
 def write_robot_replay(log: HopLog, terrain: Terrain, path, planned_footholds=None, predicted_apexes=None,
                        title: str | None = None, robot: RobotParams | None = None, *, fps: float = 30.0,
                        speed: float = 1.0, follow: bool = True) -> Path:
