@@ -103,6 +103,7 @@ def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
     return list(suite.cases[::every])[:n_cases]
 
 
+# many parameters: the suite and planners, then keyword options of a public entry point, each with its default
 def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=None, cache_path=None,
              controller_path=None, config: ClosedLoopConfig | dict = ClosedLoopConfig(), progress: bool = True,
              every: int = 1) -> dict:

@@ -57,6 +57,7 @@ def describe(h: NamedHopper) -> str:
     return f"{p.mass:.3g} kg, {p.leg_length:.3g} m, kd {h.units.stiffness:.3g}, mu {p.friction:.2g}"
 
 
+# many parameters: the hopper, suite and labels, then ``evaluate``'s keyword options, each with its default
 def evaluate_hopper(h: NamedHopper, family: str, seed: int, labels, every: int = 1, backend: str = "fast",
                     executor=None, cache_path=None, progress: bool = False) -> dict:
     """``labels`` (of RUNS) evaluated on the ``family`` suite drawn for ``h`` from terrain ``seed``, every

@@ -41,8 +41,9 @@ The search
 
 The Drake check
   A witness is executed on Drake in one continuous simulation, replanned on the fast map from Drake's apex
-  wherever that drifted more than ``REPLAN_TOLERANCE`` from the prediction (``execute_on_drake``): the backends
-  differ by ~1e-8 m a hop and a slow gait amplifies that 4-10x a hop. The grid angles it ran replay open-loop.
+  wherever that drifted more than ``REPLAN_TOLERANCE`` from the prediction (``verification.drake_witness``): the
+  backends differ by ~1e-8 m a hop and a slow gait amplifies that 4-10x a hop. The grid angles it ran replay
+  open-loop.
 """
 from __future__ import annotations
 
@@ -54,12 +55,11 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain, step_batch
-from drakeslip.rollout import rollout
-
 from drakeslip.units import units_of
 from planners.base import Budget
 from planners.search.tree import clear_of_edges
 from planners.search.energy_graph import Coreach, cell_graph
+from verification.drake_witness import execute_on_drake
 from verification.energy_bound import prove_unreachable
 
 TRAVERSABLE, NOT_TRAVERSABLE, UNKNOWN = "traversable", "not-traversable", "unknown"
@@ -67,7 +67,6 @@ PROVED_NOT_TRAVERSABLE = "proved-not-traversable"
 MIN_SPEED = 0.1        # m/s: slower apexes are dropped (the planners' floor is 0.3 m/s)
 BATCH_NODES = 32       # nodes expanded per step_batch call
 MAX_WITNESSES = 5      # Drake executions tried before a case is called unknown
-REPLAN_TOLERANCE = 1e-3  # m, m/s: Drake's apex this far from the predicted one is replanned from
 REPLAN_NODES = 50_000  # node budget of one replan during a Drake execution
 EDGE_MARGIN = 0.02     # m: a hop landing this close to an edge is risky (the planners drop them) ...
 TRIP_MARGIN = 0.01     # m: ... and so is one whose foot clears the terrain at the apex by less than this;
@@ -109,7 +108,8 @@ class _Pass:
 
     def __init__(self, apex: ApexState, terrain: Terrain, goal_x: float, params: SlipParams, res: Resolution,
                  min_speed: float, alive=None, parallel: bool = False):
-        self.terrain, self.goal_x, self.params, self.res, self.min_speed = terrain, goal_x, params, res, min_speed
+        self.start, self.terrain, self.goal_x, self.params = apex, terrain, goal_x, params
+        self.res, self.min_speed = res, min_speed
         u = units_of(params)   # merge cells, margins and the risk cost in the hopper's units
         self.merge_x, self.risk_cost, self.edge_margin, self.trip_margin = (
             c * u.length for c in (res.merge_x, RISK_COST, EDGE_MARGIN, TRIP_MARGIN))
@@ -234,45 +234,15 @@ class _Pass:
     def ban(self, node: int) -> None:   # drop the node and its subtree (Drake rejected its hop)
         self.banned.add(node)
 
-
-def execute_on_drake(apex: ApexState, witness: dict, search_from, goal_x: float, terrain: Terrain,
-                     params: SlipParams) -> dict:
-    """Execute a witness on the Drake simulator, with its leg angles commanded at each apex, and replan when
-    Drake's apex has drifted more than ``REPLAN_TOLERANCE`` from the fast map's prediction: ``search_from(apex)``
-    must return a new witness from there, or None (open-loop replay drifts: see the module doc). It is one
-    continuous, deterministic simulation, so the leg angles it ran re-check open-loop on Drake exactly.
-    Returns {"ok", "replans", "hops_done", "failure", "final_x", "drift_hop", "leg_angles", "footholds",
-    "apexes"}: ok when every hop succeeds and the last apex is at or past ``goal_x``; ``drift_hop`` is the first
-    hop at whose start Drake had drifted (None if never)."""
-    plan = {"start": 0, "from": tuple(apex), **witness}
-    log = {"replans": 0, "drift_hop": None, "stuck": False}
-
-    def policy(a, hop):
-        j = hop - plan["start"]
-        if j >= len(plan["leg_angles"]):
-            return None   # the plan is done: its last apex is past the goal
-        expected = plan["apexes"][j - 1] if j > 0 else plan["from"]
-        if max(abs(u - v) for u, v in zip(a, expected)) > REPLAN_TOLERANCE:
-            log["drift_hop"] = hop if log["drift_hop"] is None else log["drift_hop"]
-            new = search_from(ApexState(*a))
-            if new is None:
-                log["stuck"] = True
-                return None
-            plan.update(start=hop, **{"from": tuple(a)}, **new)
-            log["replans"] += 1
-            j = 0
-        return plan["leg_angles"][j]
-
-    run = rollout(apex, terrain, params, leg_angles=policy, backend="drake",
-                  max_time=units_of(params).hop_seconds * (len(witness["leg_angles"]) + 20))
-    final_x = run.apexes[-1].x if run.apexes else apex.x
-    return {"ok": run.ok and not log["stuck"] and final_x >= goal_x, "replans": log["replans"],
-            "hops_done": len(run.apexes), "failure": run.failure.name if run.failure else None,
-            "final_x": float(final_x), "drift_hop": log["drift_hop"],
-            "leg_angles": [float(v) for v in run.leg_angles], "footholds": [float(v) for v in run.footholds],
-            "apexes": [[float(v) for v in e] for e in run.apexes]}
+    def replan(self, apex: ApexState, deadline: float) -> dict | None:
+        """A fresh witness on the fast map from ``apex`` (a Drake execution's drifted apex) at this pass's
+        resolution, or None."""
+        search = _Pass(apex, self.terrain, self.goal_x, self.params, self.res, self.min_speed, self.alive)
+        node, _ = search.next_goal(REPLAN_NODES, deadline)
+        return None if node is None else search.witness(node)
 
 
+# many parameters: a public entry point's keyword options (grid, budget, floor speed, checks), each with a default
 def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, levels=LEVELS,
                 budget: Budget = DEFAULT_BUDGET, min_speed: float | None = None, drake_check: bool = True,
                 max_witnesses: int = MAX_WITNESSES, energy: bool = True, confirm: bool = False,
@@ -290,14 +260,7 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
     params = params or SlipParams()
     min_speed = units_of(params).speed_or(min_speed, MIN_SPEED)
     apex = ApexState(*map(float, apex)).validate()
-    if not isinstance(budget, Budget):
-        raise TypeError(f"budget must be a planners.base.Budget, got {type(budget).__name__}")
-    if not levels or not all(isinstance(r, Resolution) for r in levels):
-        raise ValueError(f"levels must be a non-empty sequence of Resolution, got {levels!r}")
-    if not (math.isfinite(goal_x) and math.isfinite(min_speed) and min_speed > 0):
-        raise ValueError(f"goal_x must be finite and min_speed positive, got {goal_x!r}, {min_speed!r}")
-    if apex.xdot <= 0:
-        raise ValueError(f"apex xdot={apex.xdot} must be positive: the hopper moves forward")
+    _check_question(apex, goal_x, levels, budget, min_speed)
     step_batch(apex, [0.0], terrain, params)  # checks the apex is above the terrain; compiles the kernel once
     t0 = time.perf_counter()
     deadline = t0 + budget.max_time_s
@@ -317,31 +280,8 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
         alive = Coreach(graph).alive
     for res in levels:
         t_pass, tried = time.perf_counter(), len(result["drake"])
-        search, stop = _Pass(apex, terrain, goal_x, params, res, min_speed, alive, parallel), None
-        while True:
-            node, stop = search.next_goal(budget.max_nodes - result["nodes"], deadline)
-            if node is None:
-                break
-            witness = search.witness(node)
-            if not drake_check:
-                result.update(verdict=TRAVERSABLE, witness=witness)
-                break
-            run = execute_on_drake(apex, witness, lambda a, res=res: _replan(a, terrain, goal_x, params, res,
-                                                                             min_speed, deadline, alive),
-                                   goal_x, terrain, params)
-            result["drake"].append({k: run[k] for k in ("ok", "replans", "hops_done", "failure", "final_x",
-                                                        "drift_hop")})
-            if run["ok"]:
-                result.update(verdict=TRAVERSABLE, witness={k: run[k] for k in ("leg_angles", "footholds", "apexes")})
-                break
-            # Drake disagrees (a near-tie the two integrators resolve differently, or a drift with no way on):
-            # drop the witness's apex where it drifted, or else its hop that failed, with the subtree.
-            path = search.path(node)
-            bad = run["drift_hop"] - 1 if run["drift_hop"] else min(run["hops_done"], len(path) - 1)
-            search.ban(path[bad])
-            if len(result["drake"]) >= max_witnesses:
-                stop = "witnesses"
-                break
+        search = _Pass(apex, terrain, goal_x, params, res, min_speed, alive, parallel)
+        stop = _search_pass(search, result, budget.max_nodes, deadline, drake_check, max_witnesses)
         if stop == "exhausted" and search.banned:
             stop = "pruned"   # a graph pruned by rejected witnesses proves nothing when it exhausts
         result["nodes"] += search.nodes
@@ -351,6 +291,55 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
                                  "witnesses": len(result["drake"]) - tried, "time_s": time.perf_counter() - t_pass})
         if result["verdict"] == TRAVERSABLE or stop != "exhausted":
             break
+    _conclude(result, min_speed, confirm, drake_check)
+    result["time_s"] = time.perf_counter() - t0
+    return result
+
+
+def _check_question(apex: ApexState, goal_x: float, levels, budget: Budget, min_speed: float) -> None:
+    """ValueError (TypeError for the budget) naming the first bad argument of ``model_check``."""
+    if not isinstance(budget, Budget):
+        raise TypeError(f"budget must be a planners.base.Budget, got {type(budget).__name__}")
+    if not levels or not all(isinstance(r, Resolution) for r in levels):
+        raise ValueError(f"levels must be a non-empty sequence of Resolution, got {levels!r}")
+    if not (math.isfinite(goal_x) and math.isfinite(min_speed) and min_speed > 0):
+        raise ValueError(f"goal_x must be finite and min_speed positive, got {goal_x!r}, {min_speed!r}")
+    if apex.xdot <= 0:
+        raise ValueError(f"apex xdot={apex.xdot} must be positive: the hopper moves forward")
+
+
+def _search_pass(search: _Pass, result: dict, max_nodes: int, deadline: float, drake_check: bool,
+                 max_witnesses: int) -> str | None:
+    """Run ``search`` until one of its witnesses is accepted (``result``'s verdict and witness set; returns None)
+    or it stops (returns why); each witness executed on Drake is logged in ``result["drake"]``, and one Drake
+    rejects is banned with the subtree where it went wrong."""
+    while True:
+        node, stop = search.next_goal(max_nodes - result["nodes"], deadline)
+        if node is None:
+            return stop
+        witness = search.witness(node)
+        if not drake_check:
+            result.update(verdict=TRAVERSABLE, witness=witness)
+            return stop
+        run = execute_on_drake(search.start, witness, lambda a: search.replan(a, deadline), search.goal_x,
+                               search.terrain, search.params)
+        result["drake"].append({k: run[k] for k in ("ok", "replans", "hops_done", "failure", "final_x",
+                                                    "drift_hop")})
+        if run["ok"]:
+            result.update(verdict=TRAVERSABLE, witness={k: run[k] for k in ("leg_angles", "footholds", "apexes")})
+            return stop
+        # Drake disagrees (a near-tie the two integrators resolve differently, or a drift with no way on):
+        # drop the witness's apex where it drifted, or else its hop that failed, with the subtree.
+        path = search.path(node)
+        bad = run["drift_hop"] - 1 if run["drift_hop"] else min(run["hops_done"], len(path) - 1)
+        search.ban(path[bad])
+        if len(result["drake"]) >= max_witnesses:
+            return "witnesses"
+
+
+def _conclude(result: dict, min_speed: float, confirm: bool, drake_check: bool) -> None:
+    """The verdict of ``result`` from its passes (not traversable at the finest exhausted grid, or why unknown),
+    its witness's hops and its statement, set in place."""
     last, done = result["passes"][-1], [p for p in result["passes"] if p["stop"] == "exhausted"]
     if result["verdict"] == UNKNOWN and done and (last["stop"] == "exhausted" or (
             not confirm and last["stop"] in ("time", "nodes") and not last["witnesses"])):
@@ -363,8 +352,6 @@ def model_check(apex, terrain: Terrain, goal_x: float, params: SlipParams | None
     if result["verdict"] == UNKNOWN:
         result["why"] = last["stop"]
     result["statement"] = _statement(result, drake_check)
-    result["time_s"] = time.perf_counter() - t0
-    return result
 
 
 def resolution_text(holds_at: dict) -> str:
@@ -390,10 +377,3 @@ def _statement(r: dict, drake_check: bool) -> str:
            "pruned": "exhausted only after Drake-rejected witnesses pruned it"}.get(r["why"], f"ran out of {r['why']}")
     return (f"the {last['angle_deg']:g} deg pass {why} after {last['nodes']} nodes"
             + (f"; no plan at {done} (exhausted)" if done else ""))
-
-
-def _replan(apex, terrain, goal_x, params, res, min_speed, deadline, alive=None) -> dict | None:
-    """A fresh fast-map witness from ``apex`` (a Drake execution's drifted apex), or None."""
-    search = _Pass(apex, terrain, goal_x, params, res, min_speed, alive)
-    node, _ = search.next_goal(REPLAN_NODES, deadline)
-    return None if node is None else search.witness(node)

@@ -79,6 +79,7 @@ def summarize(records: list) -> dict:
             "time_s_median": float(np.median([r["time_s"] for r in records])) if n else 0.0}
 
 
+# many parameters: the suite and cases, then ``model_check``'s keyword options and the run's, each with its default
 def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
                 levels=LEVELS, min_speed: float | None = None, drake_check: bool = True,
                 max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None, energy: bool = True,
@@ -96,8 +97,9 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
     first = {}
     for c in cases:  # identical cases ask the same question: checked once
         first.setdefault(keys[c.id], c)
-    tasks = [(key, (c.apex, c.terrain, suite.goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
-                    energy, confirm, parallel)) for key, c in first.items()]
+    options = {"levels": levels, "budget": budget, "min_speed": min_speed, "drake_check": drake_check,
+               "max_witnesses": max_witnesses, "energy": energy, "confirm": confirm, "parallel": parallel}
+    tasks = [(key, (c.apex, c.terrain, suite.goal_x, params, options)) for key, c in first.items()]
 
     def reuse(held):  # a cached "unknown", or an unconfirmed "not-traversable", is rerun when the budget grew
         return (held["verdict"] != UNKNOWN and not (held.get("holds_at") or {}).get("unconfirmed")) or (
@@ -116,11 +118,10 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
             "cases": ordered, "summary": summarize(ordered)}
 
 
-def _checked(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
-             energy=True, confirm=False, parallel=False) -> dict:
-    """One case's verdict with the budget it had (a task of ``check_suite``)."""
-    return {**model_check(apex, terrain, goal_x, params, levels, budget, min_speed, drake_check, max_witnesses,
-                          energy, confirm, parallel), "budget": asdict(budget)}
+def _checked(apex, terrain, goal_x, params, options: dict) -> dict:
+    """One case's verdict with the budget it had (a task of ``check_suite``): ``options`` are ``model_check``'s
+    keyword options."""
+    return {**model_check(apex, terrain, goal_x, params, **options), "budget": asdict(options["budget"])}
 
 
 def cross_check(oracle: dict, evaluation: dict) -> dict:

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 
@@ -230,20 +231,22 @@ def check_plan(record: PlanRecord, mode: str = "auto", tolerance: float = TOLERA
         if k < len(sim.footholds):
             planned, actual = float(record.footholds[k]), float(sim.footholds[k])
             if abs(actual - planned) > tolerance:
-                return _counterexample(sim, record, mode, tolerance, "foothold", k, planned, actual, touchdowns[k])
+                return _counterexample(sim, record, mode, tolerance,
+                                       _Departure("foothold", k, planned, actual, touchdowns[k]))
         if sim.failure is FailureMode.TIMEOUT and k == sim.failed_hop:
             raise SimulationCrash(timed_out(sim, k))
         if sim.failure is not None and k == sim.failed_hop:
-            return _counterexample(sim, record, mode, tolerance, "failure", k, None, None, sim.failure_event)
+            return _counterexample(sim, record, mode, tolerance,
+                                   _Departure("failure", k, None, None, sim.failure_event))
         predicted = record.apexes[k]
         if np.all(np.isfinite(predicted)) and np.max(np.abs(np.subtract(sim.apexes[k], predicted))) > tolerance:
-            return _counterexample(sim, record, mode, tolerance, "apex", k, tuple(map(float, predicted)),
-                                   tuple(map(float, sim.apexes[k])), apex_events[k])
+            return _counterexample(sim, record, mode, tolerance, _Departure(
+                "apex", k, tuple(map(float, predicted)), tuple(map(float, sim.apexes[k])), apex_events[k]))
     if len(sim.apexes) != n:
         raise SimulationCrash(f"the Drake run stopped after {len(sim.apexes)} of {n} hops with no failure")
     if sim.footholds[-1] < record.target_x - tolerance:
-        return _counterexample(sim, record, mode, tolerance, "target", n - 1, record.target_x,
-                               float(sim.footholds[-1]), apex_events[-1])
+        return _counterexample(sim, record, mode, tolerance,
+                               _Departure("target", n - 1, record.target_x, float(sim.footholds[-1]), apex_events[-1]))
     predicted = np.isfinite(record.apexes).all(axis=1)
     apex_deviation = (float(np.max(np.abs(np.array(sim.apexes)[predicted] - record.apexes[predicted])))
                       if predicted.any() else math.nan)
@@ -263,9 +266,22 @@ def timed_out(sim: SimulationResult, hop: int) -> str:
             f"t={e.time:.4g} s, x={e.state[0]:.4g} z={e.state[1]:.4g} zdot={e.state[3]:.4g}: no verdict on the plan")
 
 
-def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str, tolerance: float, kind: str, hop: int,
-                    planned, actual, event) -> Counterexample:
-    """The counterexample at ``event`` (the failure, or the touchdown or apex where the run left the plan)."""
+class _Departure(NamedTuple):
+    """Where a run left its plan: the ``kind`` ("failure", "foothold", "apex" or "target"), the ``hop``, the
+    ``planned`` value against the ``actual`` one (None for a failure), and the simulator's ``event`` there (the
+    failure, or the touchdown or apex)."""
+
+    kind: str
+    hop: int
+    planned: object
+    actual: object
+    event: object
+
+
+def _counterexample(sim: SimulationResult, record: PlanRecord, mode: str, tolerance: float,
+                    departure: _Departure) -> Counterexample:
+    """The counterexample at ``departure``, of a check in ``mode`` with ``tolerance``."""
+    kind, hop, planned, actual, event = departure
     row = _hybrid_at(sim, event.time, after=kind != "failure")
     h = HybridState(row)
     hybrid = {k: float(v) for k, v in zip(HybridState._fields, h[:])}

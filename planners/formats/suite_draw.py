@@ -158,6 +158,7 @@ def hopper_terrain(family: str, seed: int, scales: SuiteScales) -> Terrain:
                              terrain.x0 * scales.length)
 
 
+# many parameters: ``make_suite``'s, each with the paper's value as its default, and the hopper to draw them for
 def draw_suite(family: str, seed: int, hopper: NamedHopper | None = None, n_terrains: int = PAPER_TERRAINS,
                speeds=PAPER_SPEEDS, heights=PAPER_HEIGHTS, goal_x: float = PAPER_GOAL_X,
                friction: float | None = None, name: str | None = None) -> Suite:
@@ -184,6 +185,7 @@ def draw_suite(family: str, seed: int, hopper: NamedHopper | None = None, n_terr
     return suite_for(hopper, name or f"{family}-{seed}", course_end(start_x, goal_x, scales), friction, cases)
 
 
+# many parameters: the terrain files, then the suite's options, each defaulting to the paper's made the hopper's
 def suite_from_terrains(profiles, hopper: NamedHopper | None = None, speeds=None, heights=None,
                         start_x: float | None = None, goal_x: float | None = None, friction: float | None = None,
                         name: str | None = None, cell: float | None = None) -> Suite:
