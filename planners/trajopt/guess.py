@@ -150,16 +150,29 @@ def build_guess(apex, footholds, segs: list[Segment], terrain: Terrain, params: 
             knots_out = _symmetric_stance(s0, foot, tau, params)
         dur, path = knots_out
         angles[i], falls[i], durs[i], feet[i], stance[i] = theta, tf, dur, foot[0], path
-        if not reanchor:  # go on from the liftoff
-            lo = path[-1]
-            zd, xd = max(lo[3], 0.05 * units.speed), max(lo[2], 0.05 * units.speed)
-            apexes[i + 1] = (lo[0] + xd * zd / g, lo[1] + zd * zd / (2 * g), xd)
-            continue
-        # re-anchor the next apex on the seed's footholds
-        nxt = footholds[i + 1] if i + 1 < n else footholds[i] + (footholds[i] - (footholds[i - 1] if i else a.x))
-        top = max(h, segs[i + 1].height if i + 1 < n else h)
-        z = top + above
-        v = min(max(math.sqrt(max(2 * (energy - g * z), 0.0)), 0.5 * units.speed), 3.5 * units.speed)
-        apexes[i + 1] = (0.5 * (footholds[i] + nxt), z, v)
+        apexes[i + 1] = (_reanchored_apex(i, footholds, segs, a.x, above, energy, params) if reanchor
+                         else _apex_after_liftoff(path[-1], params))
     return Guess(angles, falls, feet, durs, stance, apexes, fast_ok, fast_failure)
+
+
+def _apex_after_liftoff(liftoff, params: SlipParams) -> tuple:
+    """The apex of the flight from the ``liftoff`` state (x, z, xdot, zdot), its speeds held to at least the
+    paper's hopper's 5 cm/s (up and forward)."""
+    slow, g = 0.05 * units_of(params).speed, params.gravity
+    zd, xd = max(liftoff[3], slow), max(liftoff[2], slow)
+    return (liftoff[0] + xd * zd / g, liftoff[1] + zd * zd / (2 * g), xd)
+
+
+def _reanchored_apex(i: int, footholds: np.ndarray, segs: list[Segment], x: float, above: float, energy: float,
+                     params: SlipParams) -> tuple:
+    """The apex after hop i (from an apex at ``x``) re-anchored on the seed's footholds: midway between footholds
+    i and i + 1 (past the last, one more step as long as the one before), ``above`` the higher of their segments,
+    and as fast as the start's ``energy`` per unit mass allows there."""
+    n, g, units = footholds.size, params.gravity, units_of(params)
+    h = segs[i].height
+    nxt = footholds[i + 1] if i + 1 < n else footholds[i] + (footholds[i] - (footholds[i - 1] if i else x))
+    top = max(h, segs[i + 1].height if i + 1 < n else h)
+    z = top + above
+    v = min(max(math.sqrt(max(2 * (energy - g * z), 0.0)), 0.5 * units.speed), 3.5 * units.speed)
+    return (0.5 * (footholds[i] + nxt), z, v)
 

@@ -118,10 +118,6 @@ class SlipTrajopt:
                 raise TrajoptError(f"foothold {i} is assigned to a ditch segment [{s.lo:.2f}, {s.hi:.2f})")
         N, K = len(self.segs), cfg.knots
         self.N, self.K = N, K
-        p = params.as_array()
-        L0, g, mu = params.leg_length, params.gravity, params.friction
-        foot_pos = generic(dyn.foot_position)
-        leg_len, leg_rate = generic(dyn.stance_leg_length), generic(dyn.leg_rate)
         prog = self.prog = MathematicalProgram()
         self.theta = prog.NewContinuousVariables(N, "theta")
         self.tf = prog.NewContinuousVariables(N, "tf")
@@ -130,68 +126,86 @@ class SlipTrajopt:
         self.S = [prog.NewContinuousVariables(K + 1, 4, f"s{i}") for i in range(N)]
         self.A = prog.NewContinuousVariables(N, 3, "apex")  # the apex after hop i
         self.groups: dict = {}
-
-        def add(group, binding):
-            self.groups.setdefault(group, []).append(binding)
-
-        limit = 0.97 * math.atan(mu)
-        half = math.pi / params.natural_frequency
-        mu_c = cfg.friction_fraction * mu
         for i, seg in enumerate(self.segs):
-            ax, az, av = self.apex_before(i)
-            S, th, tf, f, T = self.S[i], self.theta[i], self.tf[i], self.foot[i], self.dur[i]
-            h = seg.height
-            prog.AddBoundingBoxConstraint(-limit, limit, th)
-            prog.AddBoundingBoxConstraint(0.01 * units.time, 2.0 * units.time, tf)
-            prog.AddBoundingBoxConstraint(0.3 * half, 3.0 * half, T)
-            add("foothold_segment", prog.AddBoundingBoxConstraint(seg.lo + cfg.edge_margin,
-                                                                  seg.hi - cfg.edge_margin, f))
-            # touchdown: the body falls from apex i for tf; the foot of the leg held at theta reaches (f, h)
-            td = [ax + av * tf, az - 0.5 * g * tf * tf, av, -g * tf]
-            add("touchdown", _add_expressions(prog, [S[0, j] - td[j] for j in range(4)], 0, 0))
-            fx, fz = foot_pos(S[0, 0], S[0, 1], th, p)
-            add("foot_on_terrain", _add_expressions(prog, [fx - f, fz - h], 0, 0))
-            add("leg_loads", _add_expressions(prog, leg_rate(S[0, 0], S[0, 1], S[0, 2], S[0, 3], f, h), -np.inf,
-                                              -1e-3 * units.speed))
-            # stance: collocation of the shared stance equations
-            variables = np.concatenate([S.reshape(-1), [f, T]])
-            defects = dual_constraint(stance_defects(cfg.collocation, K, params, h), 4 * K)
-            binding = prog.AddConstraint(defects, np.zeros(4 * K), np.zeros(4 * K), variables)
-            binding.evaluator().SetGradientSparsityPattern(defect_sparsity(cfg.collocation, K))
-            add("dynamics", binding)
-            # along stance: no bottom-out, no longer than rest length before liftoff (interior knots) ...
-            inner = np.concatenate([S[1:K, :2].reshape(-1), [f]])
-            binding = prog.AddConstraint(dual_constraint(interior_leg_lengths(K, h), K - 1),
-                                         np.full(K - 1, params.min_leg_length + cfg.stroke_margin),
-                                         np.full(K - 1, L0), inner)
-            binding.evaluator().SetGradientSparsityPattern(
-                [(k, c) for k in range(K - 1) for c in (2 * k, 2 * k + 1, 2 * (K - 1))])
-            add("leg_length", binding)
-            # ... inside the friction cone, mu' (z - h) >= |x - f| (linear: the foot height is known) ...
-            rows = np.zeros((2 * (K + 1), 2 * (K + 1) + 1))
-            for k in range(K + 1):
-                for r, sign in ((2 * k, 1.0), (2 * k + 1, -1.0)):
-                    rows[r, k], rows[r, K + 1 + k], rows[r, -1] = -sign, mu_c, sign
-            add("friction", prog.AddLinearConstraint(rows, np.full(2 * (K + 1), mu_c * h), np.full(2 * (K + 1), np.inf),
-                                                     np.concatenate([S[:, 0], S[:, 1], [f]])))
-            # ... and moving forward (a STALL otherwise)
-            prog.AddBoundingBoxConstraint(cfg.min_stance_speed, np.inf, S[:, 2])
-            x, z, xd, zd = S[K]
-            add("liftoff", _add_expressions(prog, leg_len(x, z, f, h), L0, L0))
-            prog.AddBoundingBoxConstraint(0.05 * units.speed, np.inf, zd)  # leaves the ground upward: an apex follows
-            # flight to the next apex, in closed form
-            A = self.A[i]
-            add("apex", _add_expressions(prog, [A[0] - (x + xd * zd / g), A[1] - (z + zd * zd / (2 * g)), A[2] - xd],
-                                         0, 0))
-            prog.AddBoundingBoxConstraint(cfg.min_speed, cfg.max_speed, A[2])
+            self._add_touchdown(i, seg)
+            self._add_stance(i, seg)
+            self._add_liftoff(i, seg)
         if math.isfinite(self.target_x):  # the hopper passes the target: the last apex lies beyond it
-            add("target", prog.AddBoundingBoxConstraint(self.target_x + cfg.target_margin, np.inf, self.A[N - 1, 0]))
+            self._add("target", prog.AddBoundingBoxConstraint(self.target_x + cfg.target_margin, np.inf,
+                                                              self.A[N - 1, 0]))
         for k in range(N + 1):
             variables, fn, m = self._clearance(k)
-            add("clearance", prog.AddConstraint(fn, np.full(m, cfg.clearance), np.full(m, np.inf), variables))
+            self._add("clearance", prog.AddConstraint(fn, np.full(m, cfg.clearance), np.full(m, np.inf), variables))
         self._add_costs()
         self.margins = add_margins(self)
         self.build_time_s = time.perf_counter() - t0
+
+    def _add(self, group: str, binding) -> None:
+        self.groups.setdefault(group, []).append(binding)
+
+    # -- hop i: flight to touchdown, stance, liftoff and flight to the next apex ----------------------------------
+    def _add_touchdown(self, i: int, seg: Segment) -> None:
+        """Hop i's bounds, and its touchdown: the body falls from apex i for tf; the foot of the leg held at theta
+        reaches (f, h) on its segment, its leg compressing."""
+        prog, cfg, params, units = self.prog, self.config, self.params, self.units
+        g, h = params.gravity, seg.height
+        limit = 0.97 * math.atan(params.friction)
+        half = math.pi / params.natural_frequency
+        ax, az, av = self.apex_before(i)
+        S, th, tf, f, T = self.S[i], self.theta[i], self.tf[i], self.foot[i], self.dur[i]
+        prog.AddBoundingBoxConstraint(-limit, limit, th)
+        prog.AddBoundingBoxConstraint(0.01 * units.time, 2.0 * units.time, tf)
+        prog.AddBoundingBoxConstraint(0.3 * half, 3.0 * half, T)
+        self._add("foothold_segment", prog.AddBoundingBoxConstraint(seg.lo + cfg.edge_margin,
+                                                                    seg.hi - cfg.edge_margin, f))
+        td = [ax + av * tf, az - 0.5 * g * tf * tf, av, -g * tf]
+        self._add("touchdown", _add_expressions(prog, [S[0, j] - td[j] for j in range(4)], 0, 0))
+        fx, fz = generic(dyn.foot_position)(S[0, 0], S[0, 1], th, params.as_array())
+        self._add("foot_on_terrain", _add_expressions(prog, [fx - f, fz - h], 0, 0))
+        leg_rate = generic(dyn.leg_rate)
+        self._add("leg_loads", _add_expressions(prog, leg_rate(S[0, 0], S[0, 1], S[0, 2], S[0, 3], f, h), -np.inf,
+                                                -1e-3 * units.speed))
+
+    def _add_stance(self, i: int, seg: Segment) -> None:
+        """Hop i's stance: collocation of the shared stance equations; along it no bottom-out, no longer than rest
+        length before liftoff (interior knots), inside the friction cone, and moving forward (a STALL otherwise)."""
+        prog, cfg, params, K = self.prog, self.config, self.params, self.K
+        S, f, T, h = self.S[i], self.foot[i], self.dur[i], seg.height
+        variables = np.concatenate([S.reshape(-1), [f, T]])
+        defects = dual_constraint(stance_defects(cfg.collocation, K, params, h), 4 * K)
+        binding = prog.AddConstraint(defects, np.zeros(4 * K), np.zeros(4 * K), variables)
+        binding.evaluator().SetGradientSparsityPattern(defect_sparsity(cfg.collocation, K))
+        self._add("dynamics", binding)
+        inner = np.concatenate([S[1:K, :2].reshape(-1), [f]])
+        binding = prog.AddConstraint(dual_constraint(interior_leg_lengths(K, h), K - 1),
+                                     np.full(K - 1, params.min_leg_length + cfg.stroke_margin),
+                                     np.full(K - 1, params.leg_length), inner)
+        binding.evaluator().SetGradientSparsityPattern(
+            [(k, c) for k in range(K - 1) for c in (2 * k, 2 * k + 1, 2 * (K - 1))])
+        self._add("leg_length", binding)
+        # the friction cone, mu' (z - h) >= |x - f| (linear: the foot height is known)
+        mu_c = cfg.friction_fraction * params.friction
+        rows = np.zeros((2 * (K + 1), 2 * (K + 1) + 1))
+        for k in range(K + 1):
+            for r, sign in ((2 * k, 1.0), (2 * k + 1, -1.0)):
+                rows[r, k], rows[r, K + 1 + k], rows[r, -1] = -sign, mu_c, sign
+        self._add("friction", prog.AddLinearConstraint(rows, np.full(2 * (K + 1), mu_c * h),
+                                                       np.full(2 * (K + 1), np.inf),
+                                                       np.concatenate([S[:, 0], S[:, 1], [f]])))
+        prog.AddBoundingBoxConstraint(cfg.min_stance_speed, np.inf, S[:, 2])
+
+    def _add_liftoff(self, i: int, seg: Segment) -> None:
+        """Hop i's liftoff, the leg back at rest length and leaving the ground upward, and its flight to the next
+        apex, in closed form."""
+        prog, cfg, params = self.prog, self.config, self.params
+        L0, g, f, h = params.leg_length, params.gravity, self.foot[i], seg.height
+        x, z, xd, zd = self.S[i][self.K]
+        self._add("liftoff", _add_expressions(prog, generic(dyn.stance_leg_length)(x, z, f, h), L0, L0))
+        prog.AddBoundingBoxConstraint(0.05 * self.units.speed, np.inf, zd)  # upward: an apex follows
+        A = self.A[i]
+        self._add("apex", _add_expressions(prog, [A[0] - (x + xd * zd / g), A[1] - (z + zd * zd / (2 * g)),
+                                                  A[2] - xd], 0, 0))
+        prog.AddBoundingBoxConstraint(cfg.min_speed, cfg.max_speed, A[2])
 
     def apex_before(self, i: int):
         """Apex i (the start for i = 0): constants or decision variables."""
@@ -313,33 +327,16 @@ class SlipTrajopt:
     def solve(self, guess: Guess | np.ndarray, print_file=None) -> TrajoptResult:
         """Solve from ``guess`` (or a decision-variable vector, such as a previous result's ``x``);
         ``print_file``: keep the solver's log there."""
-        from pydrake.solvers import (CommonSolverOption, IpoptSolver, SnoptSolver, SolverOptions)
+        from pydrake.solvers import IpoptSolver, SnoptSolver
 
         cfg = self.config
         x0 = np.asarray(guess, dtype=np.float64) if isinstance(guess, np.ndarray) else self.guess_vector(guess)
         use_snopt = cfg.solver == "snopt" and SnoptSolver().available() and SnoptSolver().enabled()
         solver = SnoptSolver() if use_snopt else IpoptSolver()
-        options = SolverOptions()
         fd, log = tempfile.mkstemp(prefix="trajopt-", suffix=".log")
         os.close(fd)
         try:
-            if use_snopt:
-                options.SetOption(CommonSolverOption.kPrintFileName, log)
-                sid = solver.solver_id()
-                options.SetOption(sid, "Major iterations limit", cfg.major_iterations)
-                options.SetOption(sid, "Iterations limit", 100000)
-                options.SetOption(sid, "Major optimality tolerance", cfg.optimality_tolerance)
-                options.SetOption(sid, "Major feasibility tolerance", cfg.feasibility_tolerance)
-            else:
-                sid = solver.solver_id()
-                options.SetOption(sid, "output_file", log)
-                options.SetOption(sid, "file_print_level", 3)
-                options.SetOption(sid, "print_level", 0)
-                options.SetOption(sid, "max_iter", cfg.major_iterations)
-                options.SetOption(sid, "tol", cfg.optimality_tolerance)
-                options.SetOption(sid, "constr_viol_tol", cfg.feasibility_tolerance)
-            for name, value in cfg.solver_options:
-                options.SetOption(sid, name, value)
+            options = _solver_options(cfg, solver, use_snopt, log)
             collecting = gc.isenabled()
             gc.disable()  # the callbacks make many short-lived arrays; cyclic GC passes only cost time here
             t0 = time.perf_counter()
@@ -371,3 +368,28 @@ class SlipTrajopt:
                              build_time_s=self.build_time_s, cost=float(result.get_optimal_cost()),
                              leg_angles=val(self.theta), footholds=val(self.foot), apexes=apexes,
                              durations=val(self.dur), max_violation=max(viol.values()), violations=viol, x=x)
+
+
+def _solver_options(cfg: TrajoptConfig, solver, use_snopt: bool, log: str):
+    """The SolverOptions of a solve by ``solver`` (SNOPT when ``use_snopt``, else IPOPT): its log written to
+    ``log``, the iteration limit and tolerances of ``cfg``, then ``cfg.solver_options`` as given."""
+    from pydrake.solvers import CommonSolverOption, SolverOptions
+
+    options = SolverOptions()
+    sid = solver.solver_id()
+    if use_snopt:
+        options.SetOption(CommonSolverOption.kPrintFileName, log)
+        options.SetOption(sid, "Major iterations limit", cfg.major_iterations)
+        options.SetOption(sid, "Iterations limit", 100000)
+        options.SetOption(sid, "Major optimality tolerance", cfg.optimality_tolerance)
+        options.SetOption(sid, "Major feasibility tolerance", cfg.feasibility_tolerance)
+    else:
+        options.SetOption(sid, "output_file", log)
+        options.SetOption(sid, "file_print_level", 3)
+        options.SetOption(sid, "print_level", 0)
+        options.SetOption(sid, "max_iter", cfg.major_iterations)
+        options.SetOption(sid, "tol", cfg.optimality_tolerance)
+        options.SetOption(sid, "constr_viol_tol", cfg.feasibility_tolerance)
+    for name, value in cfg.solver_options:
+        options.SetOption(sid, name, value)
+    return options
