@@ -26,8 +26,7 @@ from planners.registry import check_label, labels, planner_name
 from verification.plan_check_options import MODES, TOLERANCE
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
     searched = [label for label in labels() if planner_name(label) != "trajopt"]   # trajopt: trajopt_warmstart.py
@@ -41,18 +40,17 @@ def main(argv=None) -> int:
                     help="results JSON")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
-    args = ap.parse_args(argv)
-    executor = cli.executor(args)
+    return ap
 
-    from tqdm import tqdm
 
+def checked_inputs(ap: cli.ArgumentParser, args):
+    """(suite, hopper, planner specs, worker setup), or one line and exit status 2 for a bad suite, hopper, label
+    or weights file."""
     from drakeslip.jobs.executors import prepare
-    from drakeslip.jobs.runner import JsonLinesStore, run, write_json
-    from planners.formats.suite import load_suite, terrain_record
+    from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite
     from planners.registry import hopper_specs
     from verification import certify
-    from verification.provenance import provenance
 
     try:
         suite = load_suite(args.suite)
@@ -62,9 +60,19 @@ def main(argv=None) -> int:
         prepare(setup)
     except (OSError, ValueError) as error:
         ap.error(str(error))
+    return suite, hopper, specs, setup
+
+
+def certified(args, suite, hopper, specs, setup, executor) -> list[dict]:
+    """The record of each (planner, case), planners first, checked (or read from OUT.cases.jsonl)."""
+    from tqdm import tqdm
+
+    from drakeslip.jobs.runner import JsonLinesStore, run
+    from planners.formats.suite import terrain_record
+    from verification import certify
+
     # the paper's hopper is left out of the task (and its key), so its cached cases stay valid
     body = None if suite.hopper is None else asdict(hopper.params)
-    cli.announce(argv)
     cases = list(suite.cases[::args.every])[:args.cases]
     key = lambda label, c: hashlib.sha256(json.dumps(
         [label, c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode, args.tolerance,
@@ -78,20 +86,40 @@ def main(argv=None) -> int:
                              setup):
             records[k] = record
             bar.update()
-    ordered = [records[k] for k, _ in tasks]
-    write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode,
-                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance()})
+    return [records[k] for k, _ in tasks]
+
+
+def report(specs, ordered: list[dict]) -> None:
+    """A row of verdicts per planner, then each plan that is not certified."""
     print(f"{'planner':<20} {'certified':>9} {'counterexample':>14} {'no plan':>7} {'malformed':>9}  first mismatches")
     for label in specs:
         mine = [r for r in ordered if r["label"] == label]
         count = Counter(r["verdict"] for r in mine)
         kinds = Counter(r["kind"] if r["kind"] != "failure" else r["reason"].split()[0] for r in mine
                         if r["verdict"] == "counterexample")
+        mismatches = ", ".join(f"{k} {v}" for k, v in kinds.items()) or "-"
         print(f"{label:<20} {count['certified']:>4} / {len(mine):<2} {count['counterexample']:>14} "
-              f"{count['no plan']:>7} {count['malformed']:>9}  {', '.join(f'{k} {v}' for k, v in kinds.items()) or '-'}")
+              f"{count['no plan']:>7} {count['malformed']:>9}  {mismatches}")
     for r in ordered:
         if r["verdict"] != "certified":
             print(f"  {r['label']} {r['id']}: {r['verdict']}: {r['reason']}")
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    executor = cli.executor(args)
+    suite, hopper, specs, setup = checked_inputs(ap, args)
+    cli.announce(argv)
+    ordered = certified(args, suite, hopper, specs, setup, executor)
+
+    from drakeslip.jobs.runner import write_json
+    from verification.provenance import provenance
+
+    write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode,
+                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance()})
+    report(specs, ordered)
     print(f"wrote {args.out}")
     return cli.OK
 

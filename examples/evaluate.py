@@ -42,8 +42,7 @@ from planners.closed_loop import ClosedLoopConfig
 from planners.registry import check_label, label_options, loop_settings
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
     ap.add_argument("--planners", type=cli.names, default="heuristic,angle,step",
@@ -82,8 +81,11 @@ def main(argv=None) -> int:
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
-    args = ap.parse_args(argv)
+    return ap
 
+
+def checked_labels(ap: cli.ArgumentParser, args) -> tuple[list[str], dict]:
+    """(the planner labels, their options from --options), or one line and exit status 2."""
     try:
         labels = [check_label(label) for label in args.planners]
         options = label_options(args.options, labels)
@@ -93,7 +95,11 @@ def main(argv=None) -> int:
         ap.error(f"--no-pump needs --backend multibody, got --backend {args.backend}")
     if args.baseline is not None and args.baseline not in labels:
         ap.error(f"--baseline {args.baseline!r} is not among --planners {labels}")
-    executor = cli.executor(args)
+    return labels, options
+
+
+def loop_configs(ap: cli.ArgumentParser, args, labels: list[str]) -> dict:
+    """{label: the ClosedLoopConfig its cases run with}, or one line and exit status 2 for a bad --map-filter."""
     loop_options = {name: value for name, value in (("executed_per_plan", args.executed),
                                                      ("map_filter", args.map_filter)) if value is not None}
     if args.map_filter is not None:
@@ -106,17 +112,19 @@ def main(argv=None) -> int:
 
         loop_options["template"] = fitted_template()
         loop_options["pump_energy"] = not args.no_pump
-    configs = {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
-                                       refine=not args.mlp_only, noise=args.noise, seed=args.seed)
-               for label in labels}
+    return {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
+                                    refine=not args.mlp_only, noise=args.noise, seed=args.seed)
+            for label in labels}
 
+
+def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict):
+    """(the suite, {label: its planner spec for the suite's hopper}), the workers' weights read; or one line and exit
+    status 2 for a malformed suite, another hopper's suite, a bad option, a missing or damaged weights file."""
     from drakeslip.jobs.executors import prepare
-    from drakeslip.jobs.runner import remove, write_json
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite
     from planners.registry import hopper_specs
-    from verification.evaluation import evaluate, worker_setup
-    from verification.report import ratios, table
+    from verification.evaluation import worker_setup
 
     specs = {label: options.get(label) for label in labels}
     try:
@@ -130,7 +138,23 @@ def main(argv=None) -> int:
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))
+    return suite, specs
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    labels, options = checked_labels(ap, args)
+    executor = cli.executor(args)
+    configs = loop_configs(ap, args, labels)
+    suite, specs = checked_suite(ap, args, labels, options)
     cli.announce(argv)
+
+    from drakeslip.jobs.runner import remove, write_json
+    from verification.evaluation import evaluate
+    from verification.report import ratios, table
+
     cache = str(args.out) + ".cases.jsonl"
     if args.no_resume:
         remove(cache)

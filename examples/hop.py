@@ -98,8 +98,7 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
         print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     cli_physics.add_hopper_argument(ap)
     families = ["flat", *sorted(ds.TERRAIN_FAMILIES)]
@@ -117,8 +116,12 @@ def main(argv=None) -> int:
     ap.add_argument("--xdot", type=cli_physics.physical(SPEED, positive=True), default=None,
                     help="start apex speed [m/s], also the lookahead's nominal speed (default: 1.5, in the hopper's "
                          "units)")
-    args = ap.parse_args(argv)
+    return ap
 
+
+def checked_inputs(ap: cli.ArgumentParser, args):
+    """(the hopper's parameters, the terrain, the start apex), or one line and exit status 2 for a start off the
+    terrain; ``args.terrain`` names a terrain file's path afterwards."""
     from drakeslip.state import check_start
     from drakeslip.terrain_file import scaled_terrain
     from drakeslip.units import PAPER, units_of
@@ -141,12 +144,12 @@ def main(argv=None) -> int:
                             "the start apex")
     except ValueError as error:
         ap.error(str(error))
-    from drakeslip.viz import animate, plot_trajectory
+    return params, terrain, start
 
-    policy = TwoHopLookahead(terrain, params, nominal_speed=start.xdot)
-    print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
-    result = ds.simulate(start, policy, terrain, params, max_hops=args.hops)
-    report(result, policy, start)
+
+def draw(result, policy: TwoHopLookahead, args) -> None:
+    """The figure, and the animation and the Meshcat replay when asked for."""
+    from drakeslip.viz import animate, plot_trajectory
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
     ax = plot_trajectory(result)
@@ -164,6 +167,18 @@ def main(argv=None) -> int:
                      predicted_apexes=[p.next_apex for p in predicted if p.ok],
                      title=f"hop.py: {args.terrain} terrain, seed {args.seed}")
         print(f"replay: {args.html}")
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    params, terrain, start = checked_inputs(ap, args)
+    policy = TwoHopLookahead(terrain, params, nominal_speed=start.xdot)
+    print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
+    result = ds.simulate(start, policy, terrain, params, max_hops=args.hops)
+    report(result, policy, start)
+    draw(result, policy, args)
     return cli.FAILED if result.failure is not None else cli.OK
 
 

@@ -4,12 +4,12 @@ ditch suite drawn for each, the planners held to the acceptance bars of verifica
     python3 examples/hopper_acceptance.py --hoppers 4 --seed 35 --every 3 --backend drake --jobs 2 --out out/acceptance
 
 Per hopper: ``step`` on the ditch suite without noise (>= 95 %), ``step@robust`` under realistic noise (>= 90 %),
-``lstm-guided`` without noise (within 5 points of step, fewer ODE calls per plan); ``--families step,mixed``
-adds those families for step and lstm-guided (reported, no bar). Suites are drawn from terrain seed ``--suite-seed``
-(a fresh one: the committed suites use 1000 and 2000). --hopper FILE|DIR checks that hopper alone (a hopper
-folder's weights from examples/train_hopper.py are then read) instead of the drawn ones. Results go to OUT/HOPPER-FAMILY.json, each with its case
-cache, so a killed run resumes. Prints one table; exit 0 when every bar holds, 1 when one does not, 2 for a usage
-error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
+``lstm-guided`` without noise (within 5 points of step, fewer ODE calls per plan); ``--families step,mixed`` adds
+those families for step and lstm-guided (reported, no bar). Suites are drawn from terrain seed ``--suite-seed`` (a
+fresh one: the committed suites use 1000 and 2000). --hopper FILE|DIR checks that hopper alone (a hopper folder's
+weights from examples/train_hopper.py are then read) instead of the drawn ones. Results go to OUT/HOPPER-FAMILY.json,
+each with its case cache, so a killed run resumes. Prints one table; exit 0 when every bar holds, 1 when one does not,
+2 for a usage error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -50,7 +50,8 @@ def main(argv=None) -> int:
     ap.check_outputs(args, [("--out", args.out / f"{h.name}-{family}.json{cache}") for h in hoppers
                             for family in ("ditch", *families) for cache in ("", ".cases.jsonl")])
     args.out.mkdir(parents=True, exist_ok=True)
-    rows = ["| hopper | family | planner | success % | ODE calls / plan | bar | holds |", "|---|---|---|---|---|---|---|"]
+    rows = ["| hopper | family | planner | success % | ODE calls / plan | bar | holds |",
+            "|---|---|---|---|---|---|---|"]
     ok = True
     for h in hoppers:
         for family in ("ditch", *[f for f in families if f != "ditch"]):

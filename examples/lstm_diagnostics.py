@@ -68,12 +68,15 @@ class Counting:
 
 def _oracles() -> dict:
     """The oracles, LSTMPlanner subclasses: defined on first use, so that ``--help`` imports no torch."""
+    return {"GreedyOracle": _greedy_oracle(), "TopKOracle": _top_k_oracle()}
+
+
+def _greedy_oracle() -> type:
+    """The greedy oracle's class (diagnostic 3)."""
     from planners.base import FootstepSequence, Plan
     from planners.learned.inference import softmax
     from planners.learned.inputs import encode_window
     from planners.learned.lstm import LSTMPlanner
-    from planners.learned.ranker import top_candidates
-    from planners.learned.training.expert import GoalReachingExpert
     from planners.search.step_space import StepSpacePlanner
 
     class GreedyOracle(LSTMPlanner):
@@ -114,6 +117,15 @@ def _oracles() -> dict:
             return Plan(self.name, True, problem.target_x,
                         sequences=[FootstepSequence(f, np.full(f.size, np.nan), np.full((f.size, 3), np.nan))])
 
+    return GreedyOracle
+
+
+def _top_k_oracle() -> type:
+    """The top-k oracle's class (diagnostic 5)."""
+    from planners.learned.lstm import LSTMPlanner
+    from planners.learned.ranker import top_candidates
+    from planners.learned.training.expert import GoalReachingExpert
+
     class TopKOracle(LSTMPlanner):
         """Diagnostic 5: the one-step mode planner whose pick among its ``k`` most probable first footholds is
         made by the expert (simulates and searches: a bound, not a planner)."""
@@ -138,7 +150,7 @@ def _oracles() -> dict:
             pick = max(room, key=room.get) if room else top[0]  # max keeps the more probable of equal rooms
             return np.where(np.arange(score.size) == pick, score, 0.0)
 
-    return {"GreedyOracle": GreedyOracle, "TopKOracle": TopKOracle}
+    return TopKOracle
 
 
 def __getattr__(name: str):
@@ -277,7 +289,7 @@ def main(argv=None) -> int:
     if "2" in chosen:
         search(cases, suite.goal_x, params, args.model)
     if "3" in chosen:
-        greedy = _oracles()["GreedyOracle"](model=args.model)
+        greedy = _greedy_oracle()(model=args.model)
         success, failures = crossed(greedy, cases, suite.goal_x, params)
         print(f"3. greedy oracle: {100 * success:.1f} % reach the goal; failures {failures}")
     if "4" in chosen:
@@ -291,7 +303,7 @@ def main(argv=None) -> int:
               f"{n} states (goal-reaching sets: median {width:g} candidates of 2.5 cm); at every state of "
               f"{100 * whole:.1f} % of the cases")
     if "5" in chosen:
-        oracle = _oracles()["TopKOracle"]
+        oracle = _top_k_oracle()
         for k in args.top_k:
             success, failures = crossed(oracle(k, model=args.model), cases, suite.goal_x, params)
             print(f"5. top-{k} oracle: {100 * success:.1f} % reach the goal; failures {failures}")

@@ -92,7 +92,8 @@ def fig3(planner, args):
             ax.plot(apex.x, apex.z, "o", color="#1f4e99")
             ax.set_title(f"{family}: apex {h} m, {v} m/s", fontsize=9)
             ax.set_ylim(top=terrain.height_at(0.0) + 1.3)
-    fig.suptitle("Second-step distribution (scaled so every mode has the same height) and the 4-step LSTM plan (triangles)")
+    fig.suptitle("Second-step distribution (scaled so every mode has the same height) and the 4-step LSTM plan "
+                 "(triangles)")
     fig.savefig(args.out / FIGURES[1], dpi=110)
 
 

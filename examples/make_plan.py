@@ -30,8 +30,7 @@ from drakeslip.jobs.files import parse_json
 from planners.registry import check_label, labels
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ground = ap.add_mutually_exclusive_group(required=True)
     ground.add_argument("--suite", type=cli.input_file, help="suite file (drakeslip-suite/1 JSON)")
@@ -52,16 +51,23 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=cli.output_file(".json"), required=True, help="plan file to write (JSON)")
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
                     help="also draw the search tree over the terrain (PNG)")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def checked_options(ap: cli.ArgumentParser, args) -> dict:
+    """--options as a dict, or one line and exit status 2."""
     try:
         options = parse_json(args.options, "--options")
     except ValueError as error:
         ap.error(str(error))
     if not isinstance(options, dict):
         ap.error(f"--options must be a JSON object of planner options, got {args.options!r}")
+    return options
 
-    from drakeslip.units import units_of
-    from planners.formats.plan import save_plan
+
+def checked_case(ap: cli.ArgumentParser, args, options: dict):
+    """(the suite, its hopper, the planner, the case to plan): a suite's case, or the one case of --terrain; or one
+    line and exit status 2 for a bad suite, terrain, hopper, planner label or case."""
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite, one_case
     from planners.registry import hopper_specs, make_planners
@@ -86,6 +92,19 @@ def main(argv=None) -> int:
         case = suite.cases[int(args.case)]
     else:
         ap.error(f"--case {args.case!r} is neither a case id nor an index below {len(ids)} in {args.suite}")
+    return suite, hopper, planner, case
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    options = checked_options(ap, args)
+    suite, hopper, planner, case = checked_case(ap, args, options)
+
+    from drakeslip.units import units_of
+    from planners.formats.plan import save_plan
+
     params = hopper.params.with_friction(suite.friction)
     window = case.terrain.perceived(case.apex.x, *units_of(params).window)
     plan = planner.plan(case.apex, window, suite.goal_x, params)

@@ -32,8 +32,7 @@ from drakeslip.jobs.files import read_json
 from verification.model_check import DEFAULT_BUDGET
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--suite", type=cli.input_file, required=True, help="suite JSON file (format drakeslip-suite/1)")
     ap.add_argument("--out", type=cli.output_file(".json", beside=(".cases.jsonl",)), required=True,
@@ -42,7 +41,8 @@ def main(argv=None) -> int:
                     help="only N cases: the first N, or N at random with --seed")
     ap.add_argument("--seed", type=cli.non_negative_int, default=None, help="draw the --cases at random with this seed")
     ap.add_argument("--ids", type=cli.names, default=None, help="comma-separated case ids (instead of --cases)")
-    ap.add_argument("--budget", type=cli.positive_int, default=DEFAULT_BUDGET.max_nodes, help="node expansions per case, all passes")
+    ap.add_argument("--budget", type=cli.positive_int, default=DEFAULT_BUDGET.max_nodes,
+                    help="node expansions per case, all passes")
     ap.add_argument("--seconds", type=cli.positive, default=DEFAULT_BUDGET.max_time_s, help="search seconds per case")
     ap.add_argument("--no-refine", action="store_true",
                     help="call a case not traversable after the 0.5 deg pass alone (no 0.25 deg confirmation)")
@@ -62,20 +62,23 @@ def main(argv=None) -> int:
     ap.add_argument("--no-resume", action="store_true", help="ignore and replace the case cache")
     ap.add_argument("--quiet", action="store_true", help="no progress bar")
     cli.add_parallel(ap)
-    args = ap.parse_args(argv)
+    return ap
+
+
+def check_flags(ap: cli.ArgumentParser, args) -> None:
+    """One line and exit status 2 for flags that do not go together."""
     if args.ids and (args.cases or args.seed is not None):
         ap.error("--ids names the cases; it does not go with --cases or --seed")
     if args.parallel_steps and (args.jobs > 1 or args.executor != "local"):
         ap.error("--parallel-steps uses every core for one case: it goes with --jobs 1 and the local executor")
-    executor = cli.executor(args)
 
-    from drakeslip.jobs.runner import remove, write_json
-    from planners.base import Budget
+
+def checked_inputs(ap: cli.ArgumentParser, args):
+    """(the suite, its cases to check, the --against results), or one line and exit status 2 for a bad suite, another
+    hopper, case ids not in the suite, or an --against file that is not a results file."""
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite
-    from verification.model_check import COARSE, LEVELS, TRAVERSABLE
-    from verification.model_check_suite import check_suite, cross_check, select_cases
-    from verification.provenance import provenance
+    from verification.model_check_suite import select_cases
 
     try:
         suite = load_suite(args.suite)
@@ -86,17 +89,12 @@ def main(argv=None) -> int:
             raise ValueError(f"--against {args.against}: not a results file of examples/evaluate.py (no 'planners')")
     except (ValueError, OSError) as exc:
         ap.error(str(exc))
-    cli.announce(argv)
-    cache = str(args.out) + ".cases.jsonl"
-    if args.no_resume:
-        remove(cache)
-    results = check_suite(suite, cases, cache, Budget(args.budget, max_time_s=args.seconds),
-                          levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
-                          progress=not args.quiet, executor=executor, energy=not args.no_energy,
-                          confirm=args.confirm, parallel=args.parallel_steps)
-    results["budget"] = {"max_nodes": args.budget, "max_time_s": args.seconds}  # the config leaves it out
-    results["provenance"] = provenance()
-    write_json(args.out, results)
+    return suite, cases, against
+
+
+def report(suite, results: dict) -> None:
+    """Each case not traversable, then the suite's summary."""
+    from verification.model_check import TRAVERSABLE
 
     s = results["summary"]
     for r in results["cases"]:
@@ -115,9 +113,15 @@ def main(argv=None) -> int:
         print("  unknown: " + ", ".join(f"{k} ({why})" for why, k in s["unknown_why"].items()))
     print(f"time per case: median {s['time_s_median']:.2f} s, mean {sum(times) / len(times):.2f} s, "
           f"max {times[-1]:.1f} s")
-    print(f"wrote {args.out}")
+
+
+def contradictions(results: dict, paths, against: list) -> int:
+    """Print each --against planner's results beside the oracle's verdicts; the count of its crossings of cases the
+    oracle proved not traversable."""
+    from verification.model_check_suite import cross_check
+
     contradicted = 0
-    for path, evaluation in zip(args.against or [], against):
+    for path, evaluation in zip(paths or [], against):
         for name, c in cross_check(results, evaluation).items():
             contradicted += len(c["contradicted"])
             missed = " ".join(c["missed"][:6]) + (" ..." if len(c["missed"]) > 6 else "")
@@ -125,7 +129,37 @@ def main(argv=None) -> int:
                   f"proved not traversable {len(c['contradicted'])} {' '.join(c['contradicted'])}, found no plan "
                   f"on its grid {len(c['off_grid'])} {' '.join(c['off_grid'])}; failed where the oracle found a "
                   f"witness: {len(c['missed'])} {missed}")
-    return cli.FAILED if contradicted else cli.OK
+    return contradicted
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    check_flags(ap, args)
+    executor = cli.executor(args)
+    suite, cases, against = checked_inputs(ap, args)
+    cli.announce(argv)
+
+    from drakeslip.jobs.runner import remove, write_json
+    from planners.base import Budget
+    from verification.model_check import COARSE, LEVELS
+    from verification.model_check_suite import check_suite
+    from verification.provenance import provenance
+
+    cache = str(args.out) + ".cases.jsonl"
+    if args.no_resume:
+        remove(cache)
+    results = check_suite(suite, cases, cache, Budget(args.budget, max_time_s=args.seconds),
+                          levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
+                          progress=not args.quiet, executor=executor, energy=not args.no_energy,
+                          confirm=args.confirm, parallel=args.parallel_steps)
+    results["budget"] = {"max_nodes": args.budget, "max_time_s": args.seconds}  # the config leaves it out
+    results["provenance"] = provenance()
+    write_json(args.out, results)
+    report(suite, results)
+    print(f"wrote {args.out}")
+    return cli.FAILED if contradictions(results, args.against, against) else cli.OK
 
 
 if __name__ == "__main__":

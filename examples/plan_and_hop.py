@@ -42,8 +42,7 @@ from planners.registry import check_label, loop_settings
 FIGURE = (".png", ".pdf", ".svg")
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     cli_physics.add_hopper_argument(ap)
     ap.add_argument("--terrain", type=cli_physics.terrain_or_family(*sorted(TERRAIN_FAMILIES)), default="mixed",
@@ -72,12 +71,15 @@ def main(argv=None) -> int:
     ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
                     help="what hops: the SLIP on Drake, or the multibody robot (drakeslip/multibody) in one "
                          "closed-loop Diagram, planning for the template fitted to it")
-    args = ap.parse_args(argv)
+    return ap
 
-    from drakeslip import SlipParams, StepLengthController
+
+def checked_inputs(ap: cli.ArgumentParser, args):
+    """(the hopper, its one-case suite, the parameters the robot runs with, the controller, the planner wrapped in
+    a PlanRecorder), or one line and exit status 2 for a bad label, hopper, terrain, start or weights file."""
+    from drakeslip import StepLengthController
     from drakeslip.hopper_file import paper_hopper
-    from planners.closed_loop import ClosedLoopConfig, PlanRecorder, run_case
-    from planners.formats.suite import Case
+    from planners.closed_loop import PlanRecorder
     from planners.formats.suite_draw import one_case
     from planners.registry import hopper_specs, make_planners
 
@@ -96,16 +98,11 @@ def main(argv=None) -> int:
         planner = PlanRecorder(make_planners(specs, controller)[args.planner])
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    cli.announce(argv)
-    case = Case("demo", suite.cases[0].terrain, suite.cases[0].apex)   # the id seeds the noise draws
-    terrain, apex, args.goal, args.start_x = case.terrain, case.apex, suite.goal_x, case.apex.x
-    loop = loop_settings(args.planner)
-    executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
-    config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
-    if args.backend == "multibody":
-        return hop_robot(planner, terrain, apex, params, config, args)
-    result = run_case(planner, controller, case, args.goal, params, config)
+    return hopper, suite, params, controller, planner
 
+
+def report(result: dict, hopper, executed: int, args) -> None:
+    """Each plan of the run, then its outcome."""
     for i, p in enumerate(result["plans"]):
         steps = " ".join(f"{x:.2f}" for x in p["footholds"])
         print(f"plan {i}: from x={p['apex'][0]:.2f}, {p['ode_calls']} ODE calls, {1e3 * p['t_plan_s']:.1f} ms: "
@@ -115,6 +112,28 @@ def main(argv=None) -> int:
     print(f"{args.planner} for hopper {hopper.name} (replanning every {executed} hops, {noise}) on "
           f"{where(args)}: "
           f"{outcome} at x = {result['final_x']:.2f} after {len(result['plans'])} plans")
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    hopper, suite, params, controller, planner = checked_inputs(ap, args)
+    cli.announce(argv)
+
+    from drakeslip import SlipParams
+    from planners.closed_loop import ClosedLoopConfig, run_case
+    from planners.formats.suite import Case
+
+    case = Case("demo", suite.cases[0].terrain, suite.cases[0].apex)   # the id seeds the noise draws
+    terrain, apex, args.goal, args.start_x = case.terrain, case.apex, suite.goal_x, case.apex.x
+    loop = loop_settings(args.planner)
+    executed = args.executed or loop.get("executed_per_plan", EXECUTED_PER_PLAN)
+    config = ClosedLoopConfig(**{**loop, "executed_per_plan": executed}, noise=args.noise, seed=args.noise_seed)
+    if args.backend == "multibody":
+        return hop_robot(planner, terrain, apex, params, config, args)
+    result = run_case(planner, controller, case, args.goal, params, config)
+    report(result, hopper, executed, args)
     sim = replay(result, apex, terrain, SlipParams(**result.get("executed_params", asdict(params))))
     write_figure(sim, result, terrain, args)
     if args.html:

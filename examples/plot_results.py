@@ -2,11 +2,12 @@ r"""Figures of evaluation results (results JSONs of examples/evaluate.py or exam
 
     python3 examples/plot_results.py out/ditch.json out/step.json --out out/figs
 
-writes OUT/success.png (success rate per planner and run with 95 % Wilson intervals, the paper's Table II/III
-values marked for the ditch and step suites) and OUT/cost.png (ODE calls and planning time per planning call,
-log scales), and, when the planners account for their time (the compiled core's ``Plan.timing``), OUT/timing.png:
-the mean time per planning call in the step map, the controller, the footstep model and the search. When the inputs were run with different noise scales (evaluate.py --noise realistic*K), it also
-writes OUT/noise.png: success against K, one line per planner with its 95 % band:
+writes OUT/success.png (success rate per planner and run with 95 % Wilson intervals, the paper's Table II/III values
+marked for the ditch and step suites) and OUT/cost.png (ODE calls and planning time per planning call, log scales),
+and, when the planners account for their time (the compiled core's ``Plan.timing``), OUT/timing.png: the mean time
+per planning call in the step map, the controller, the footstep model and the search. When the inputs were run with
+different noise scales (evaluate.py --noise realistic*K), it also writes OUT/noise.png: success against K, one line
+per planner with its 95 % band:
 
     for k in 0 0.25 0.5 1 2; do python3 examples/evaluate.py --suite suites/ditch.json --planners step \
         --cases 20 --noise "realistic*$k" --out out/noise-$k.json; done

@@ -29,8 +29,7 @@ from drakeslip.noise import PROFILES
 from drakeslip.terrain import check_window
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
     cli_physics.add_hopper_argument(ap, default="the plan file's")
@@ -51,7 +50,12 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=cli.output_file(".json"), default=None, help="also write the result (JSON)")
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
                     help="also draw the draws by outcome in (apex error, leg-angle error) space (PNG)")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def checked_plan(ap: cli.ArgumentParser, args):
+    """The plan file's record, or one line and exit status 2 for flags that do not go together, a bad --map-filter,
+    a malformed plan file, another hopper's plan or more --hops than the plan has."""
     if args.backend == "multibody" and args.drake:
         ap.error("--drake compares fast-backend draws with Drake: use it with --backend fast")
     if args.drake > args.samples:
@@ -63,10 +67,6 @@ def main(argv=None) -> int:
 
     from drakeslip.hopper_file import check_same_hopper, hopper_for
     from planners.formats.plan import load_plan
-    from verification.plan_check import check_plan
-    from drakeslip.jobs.runner import write_json
-    from verification.provenance import provenance
-    from verification.robustness import confirm_on_drake, success_probability
 
     try:
         record = load_plan(args.plan)
@@ -80,12 +80,27 @@ def main(argv=None) -> int:
             raise ValueError(f"--hops {args.hops} is more than the plan's {len(record.footholds)} hops")
     except (OSError, ValueError) as error:
         ap.error(str(error))
+    return record
+
+
+def print_margins(record) -> None:
+    """The plan on Drake without noise: its margins, or where it fails."""
+    from verification.plan_check import check_plan
+
     nominal = check_plan(record, "footholds")
     print(f"{record.planner} plan, {len(record.footholds)} footholds; on Drake without noise: "
           + ("the plan as written, margins:" if nominal.ok else nominal.reason()))
     if nominal.ok:
         for name, margin in nominal.margins().items():
             print(f"  {name:<15} {margin.value:9.4f} (hop {margin.hop})")
+
+
+def drawn(args, record) -> dict:
+    """The Monte Carlo draws (and their reruns on Drake with --drake), printed, as the result document."""
+    from drakeslip.hopper_file import hopper_for
+    from verification.provenance import provenance
+    from verification.robustness import confirm_on_drake, success_probability
+
     t0 = time.perf_counter()
     result = success_probability(record, args.samples, args.noise, args.seed, backend=args.backend, hops=args.hops,
                                  map_filter=args.map_filter)
@@ -104,7 +119,19 @@ def main(argv=None) -> int:
         document["robot"] = robot_record(RobotParams(slip=record.params))
     if args.drake:
         document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
+    return document
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    record = checked_plan(ap, args)
+    print_margins(record)
+    document = drawn(args, record)
     if args.out:
+        from drakeslip.jobs.runner import write_json
+
         write_json(args.out, document)
         print(f"wrote {args.out}")
     if args.plot:

@@ -49,7 +49,7 @@ def checkpoint_file(text: str):
     return "" if text == "" else cli.output_file(".pt")(text)
 
 
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     d = TrainConfig()
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--data", type=dataset_spec, default=d.data,
@@ -77,6 +77,11 @@ def main(argv=None) -> int:
                     help="LSTM units per layer (110: the paper)")
     ap.add_argument("--channels", type=cli.positive_int, default=ModelConfig.channels, help="CNN feature maps")
     ap.add_argument("--quiet", action="store_true", help="no per-epoch log lines")
+    return ap
+
+
+def main(argv=None) -> int:
+    ap = arguments()
     args = ap.parse_args(argv)
 
     import torch

@@ -110,19 +110,21 @@ def parser() -> cli.ArgumentParser:
     return ap
 
 
-def main(argv=None):
-    ap = parser()
-    args = ap.parse_args(argv)
+def checked_device(ap: cli.ArgumentParser, args):
+    """The torch device to train on, or one line and exit status 2 for a bad --families or --device."""
     try:
         check_families(args.families)
     except ValueError as error:
         ap.error(f"--families: {error}")
     try:
-        device = torch_device(args.device)
+        return torch_device(args.device)
     except ValueError as error:
         ap.error(f"--device: {error}")
-    executor = cli.executor(args)
-    data = Path(args.data_dir)
+
+
+def checked_settings(ap: cli.ArgumentParser, args, data: Path):
+    """(the settings DATA/config.json records, the hopper's parameters or None for the paper's), or one line and
+    exit status 2 when the folder was made with other settings or its config does not read."""
     # as the folder records them: the paths and the family list as typed
     settings = {k: getattr(args, k) for k in SETTINGS} | {"model": str(args.model),
                                                           "families": ",".join(args.families)}
@@ -138,43 +140,73 @@ def main(argv=None):
         raise
     except (ValueError, OSError) as error:  # a config.json that does not parse, a folder that cannot be written
         ap.error(str(error))
+    return settings, hopper
 
+
+def round_tasks(r: int, args, model: bytes, learner: bytes | None, hopper: dict | None) -> list:
+    """Round ``r``'s tasks, (shard file name, collect_shard's arguments), family by family."""
+    tasks, explore = [], args.explore[0] if r == 0 else args.explore[1]
+    for family in args.families:
+        for start in range(0, args.terrains, args.shard_terrains):
+            seed = args.seed + 10000 * r + 1000 * sorted(TERRAIN_FAMILIES).index(family) + start
+            tasks.append((f"round{r}-{family}-{seed}.npz",
+                          (family, seed, min(args.shard_terrains, args.terrains - start), model, learner,
+                           args.record_k, args.top_k, explore, hopper)))
+    return tasks
+
+
+def collect(r: int, tasks: list, store, executor, quiet: bool) -> None:
+    """Run the tasks whose shards are not in ``store`` yet, and say how many states they recorded."""
     from tqdm import tqdm
 
     from drakeslip.jobs.runner import run
+    from planners.learned.training.train_ranker import collect_shard
+
+    todo = sum(store.get(name) is None for name, _ in tasks)
+    t0, states = time.time(), 0
+    with tqdm(total=todo, unit="shard", desc=f"round {r}", disable=quiet) as bar:
+        for _, shard in run(collect_shard, tasks, store, executor):
+            if not isinstance(shard, str):  # a str: the path of a shard already on disk
+                states += len(shard[1])
+                bar.update()
+    if todo:
+        print(f"round {r}: {states} states in {todo} shards, {time.time() - t0:.1f} s "
+              f"({states / max(time.time() - t0, 1e-9):.1f} states/s)")
+
+
+def trained(r: int, shards: list, data: Path, cfg, footstep_model: str) -> Path:
+    """DATA/round{r}.pt: the ranker trained on ``shards`` (unless it is there already)."""
     from planners.learned.ranker import save_ranker
-    from planners.learned.training.train_ranker import collect_shard, shard_store, train
+    from planners.learned.training.train_ranker import train
+
+    ranker = data / f"round{r}.pt"
+    if not ranker.exists():
+        features, rooms = load_shards(shards)
+        net, mean, std, summary = train(features, rooms, cfg, log=lambda row: print(json.dumps(row)))
+        save_ranker(ranker, net, mean, std, {"round": r, "summary": summary, "footstep_model": footstep_model})
+        print(json.dumps({"round": r, **summary}))
+    return ranker
+
+
+def main(argv=None):
+    ap = parser()
+    args = ap.parse_args(argv)
+    device = checked_device(ap, args)
+    executor = cli.executor(args)
+    data = Path(args.data_dir)
+    settings, hopper = checked_settings(ap, args, data)
+
+    from planners.learned.training.train_ranker import shard_store
 
     cfg = RankerTrainConfig(epochs=args.epochs, threads=args.threads, device=device)
     store, model = shard_store(data), Path(args.model).read_bytes()
     shards, ranker = [], None
     for r in range(args.rounds):
-        tasks, explore = [], args.explore[0] if r == 0 else args.explore[1]
         learner = None if ranker is None else ranker.read_bytes()  # the tasks get the files' contents
-        for family in args.families:
-            for start in range(0, args.terrains, args.shard_terrains):
-                seed = args.seed + 10000 * r + 1000 * sorted(TERRAIN_FAMILIES).index(family) + start
-                name = f"round{r}-{family}-{seed}.npz"
-                shards.append(data / name)
-                tasks.append((name, (family, seed, min(args.shard_terrains, args.terrains - start), model, learner,
-                                     args.record_k, args.top_k, explore, hopper)))
-        todo = sum(store.get(name) is None for name, _ in tasks)
-        t0, states = time.time(), 0
-        with tqdm(total=todo, unit="shard", desc=f"round {r}", disable=args.quiet) as bar:
-            for _, shard in run(collect_shard, tasks, store, executor):
-                if not isinstance(shard, str):  # a str: the path of a shard already on disk
-                    states += len(shard[1])
-                    bar.update()
-        if todo:
-            print(f"round {r}: {states} states in {todo} shards, {time.time() - t0:.1f} s "
-                  f"({states / max(time.time() - t0, 1e-9):.1f} states/s)")
-        ranker = data / f"round{r}.pt"
-        if not ranker.exists():
-            features, rooms = load_shards(shards)
-            net, mean, std, summary = train(features, rooms, cfg, log=lambda row: print(json.dumps(row)))
-            save_ranker(ranker, net, mean, std,
-                        {"round": r, "summary": summary, "footstep_model": settings["model"]})
-            print(json.dumps({"round": r, **summary}))
+        tasks = round_tasks(r, args, model, learner, hopper)
+        shards += [data / name for name, _ in tasks]
+        collect(r, tasks, store, executor, args.quiet)
+        ranker = trained(r, shards, data, cfg, settings["model"])
     with atomic_write(args.out) as f:
         f.write(ranker.read_bytes())
     record_digest(args.out)

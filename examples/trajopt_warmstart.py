@@ -148,11 +148,9 @@ def table(results: dict) -> str:
     return "\n".join(rows)
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
-    ap = parser()
-    args = ap.parse_args(argv)
-
+def checked_inputs(ap: cli.ArgumentParser, args):
+    """(the suite, its hopper, the solver's config, the seeds' options, the weights files each seed reads), the seeds'
+    planners built; or one line and exit status 2 for bad settings, options, suite, hopper or weights."""
     def refuse(error):  # one line on stderr, exit status 2
         ap.error(" ".join(str(error).split()))
 
@@ -186,15 +184,38 @@ def main(argv=None) -> int:
         files = {seed: seed_files(seed, options.get(seed), config) for seed in seeds}
     except (OSError, ValueError) as error:
         refuse(error)
+    return suite, hopper, config, options, files
+
+
+def solved(tasks: list, pairs: dict, cases: list, store, executor, args, desc: str) -> dict:
+    """{seed: its record of each case, in the cases' order}: the tasks run (or read from ``store``)."""
+    from tqdm import tqdm
+
+    from drakeslip.jobs.runner import run
+    from planners.trajopt.solve import optimize
+
+    seeds, records = args.seeds, {}
+    with tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=desc) as bar:
+        for k, result in run(optimize, tasks, store, executor):
+            s, i = pairs[k]
+            records[(s, i)] = {"id": cases[i].id, **result}
+            bar.update(1)
+            bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
+    return {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = parser()
+    args = ap.parse_args(argv)
+    suite, hopper, config, options, files = checked_inputs(ap, args)
+    seeds = args.seeds
     executor = cli.executor(args)
     cli.announce(argv)
 
-    from tqdm import tqdm
-
-    from drakeslip.jobs.runner import JsonLinesStore, has_fields, remove, run, write_json
+    from drakeslip.jobs.runner import JsonLinesStore, has_fields, remove, write_json
     from drakeslip.units import units_of
     from planners.trajopt.planner import make_problem
-    from planners.trajopt.solve import optimize
     from verification.provenance import code_version, provenance
 
     cases = list(suite.cases[::args.every])[:args.cases]
@@ -218,14 +239,8 @@ def main(argv=None) -> int:
     # case-major: every seed sees the same cases at any point of a partial run
     tasks = [(k, (problems[i], s, config, cases[i].terrain, True, options.get(s)))  # True: verify on Drake
              for k, (s, i) in pairs.items()]
-    records = {}
-    with tqdm(total=len(tasks), disable=args.quiet, unit="solve", desc=suite.name) as bar:
-        for k, result in run(optimize, tasks, JsonLinesStore(store_path, has_fields(*RECORD_FIELDS), code), executor):
-            s, i = pairs[k]
-            records[(s, i)] = {"id": cases[i].id, **result}
-            bar.update(1)
-            bar.set_postfix({n: sum(r["verified"] for (m, _), r in records.items() if m == n) for n in seeds})
-    done = {s: [records[(s, i)] for i in range(len(cases))] for s in seeds}
+    store = JsonLinesStore(store_path, has_fields(*RECORD_FIELDS), code)
+    done = solved(tasks, pairs, cases, store, executor, args, suite.name)
     results = {"format": FORMAT, "suite": suite.name, "suite_file": str(args.suite), "hopper": hopper.to_record(),
                "cases_n": len(cases),
                "every": args.every, "config": asdict(config), "options": options, "weights": files,

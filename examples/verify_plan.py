@@ -30,8 +30,7 @@ from drakeslip import cli_physics
 from verification.plan_check_options import MODES, TOLERANCE
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 or /1 JSON)")
     ap.add_argument("--mode", choices=MODES, default="auto",
@@ -51,15 +50,17 @@ def main(argv=None) -> int:
     ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
                     help="what executes the plan: the SLIP on Drake, or the multibody robot (drakeslip/multibody) "
                          "aiming at the plan's footholds (--mode is then footholds; --plot and --html draw the SLIP)")
-    args = ap.parse_args(argv)
+    return ap
+
+
+def checked_plan(ap: cli.ArgumentParser, args):
+    """The plan file's record (on --terrain's ground when given), or one line and exit status 2 for flags that do
+    not go together, a malformed plan file, another hopper's plan or a plan --mode cannot run."""
     if args.backend == "multibody" and (args.plot or args.html):
         ap.error("--plot and --html draw the SLIP's run: use them with --backend drake")
 
     from drakeslip.hopper_file import check_same_hopper, hopper_for
-    from drakeslip.jobs.runner import write_json
     from planners.formats.plan import load_plan
-    from verification.plan_check import check_plan
-    from verification.provenance import provenance
 
     try:
         record = load_plan(args.plan)
@@ -75,22 +76,24 @@ def main(argv=None) -> int:
             raise ValueError(f"--mode angles needs every leg angle; {args.plan} has NaN ones: use --mode footholds")
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    print(f"{record.planner} plan, {len(record.footholds)} footholds to target x={record.target_x:g}, start apex "
-          f"({record.apex.x:g}, {record.apex.z:g}, {record.apex.xdot:g})")
-    if args.backend == "multibody":
-        from verification.robot_check import check_plan_on_robot
+    return record
 
-        result = check_plan_on_robot(record, args.tolerance)
-        print(result.format())
-        if args.out:
-            write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
-        return cli.OK if result.ok else cli.FAILED
-    result = check_plan(record, args.mode, args.tolerance)
+
+def checked_on_robot(record, args) -> int:
+    """The plan's footholds aimed at by the multibody robot: the verdict printed (and written with --out)."""
+    from drakeslip.jobs.runner import write_json
+    from verification.provenance import provenance
+    from verification.robot_check import check_plan_on_robot
+
+    result = check_plan_on_robot(record, args.tolerance)
     print(result.format())
     if args.out:
-        hopper = (record.hopper or hopper_for(record.params)).to_record()
-        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "hopper": hopper,
-                              "provenance": provenance()})
+        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "provenance": provenance()})
+    return cli.OK if result.ok else cli.FAILED
+
+
+def draw(result, record, args) -> None:
+    """The figure (--plot) and the Meshcat replay (--html) of the Drake run, when asked for."""
     title = f"verify_plan.py: {record.planner} plan {args.plan.name}"
     if args.plot:
         from verification.plots import plan_check_figure
@@ -104,6 +107,30 @@ def main(argv=None) -> int:
                      predicted_apexes=[a for a in record.apexes if all(map(math.isfinite, a))],
                      title=f"{title}, {result.mode}: {verdict}")
         print(f"replay: {args.html}")
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = arguments()
+    args = ap.parse_args(argv)
+    record = checked_plan(ap, args)
+    print(f"{record.planner} plan, {len(record.footholds)} footholds to target x={record.target_x:g}, start apex "
+          f"({record.apex.x:g}, {record.apex.z:g}, {record.apex.xdot:g})")
+    if args.backend == "multibody":
+        return checked_on_robot(record, args)
+
+    from drakeslip.hopper_file import hopper_for
+    from drakeslip.jobs.runner import write_json
+    from verification.plan_check import check_plan
+    from verification.provenance import provenance
+
+    result = check_plan(record, args.mode, args.tolerance)
+    print(result.format())
+    if args.out:
+        hopper = (record.hopper or hopper_for(record.params)).to_record()
+        write_json(args.out, {**result.to_dict(), "plan": str(args.plan), "hopper": hopper,
+                              "provenance": provenance()})
+    draw(result, record, args)
     return cli.OK if result.ok else cli.FAILED
 
 
