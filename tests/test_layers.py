@@ -221,16 +221,11 @@ def unexplained_functions() -> list[str]:
     return found
 
 
-@pytest.mark.xfail(strict=True, reason="lines over 120 characters remain in files of other owners of issue 56; "
-                   "each fixes their own, and the final pass over the rest removes the last ones and this mark")
 def test_no_line_is_over_120_characters():
     found = long_lines()
     assert not found, f"{len(found)} lines:\n" + "\n".join(found)
 
 
-@pytest.mark.xfail(strict=True, reason="functions over 60 lines or 8 parameters without a reason remain in files of "
-                   "other owners of issue 56; each fixes their own, and the final pass over the rest removes the "
-                   "last ones and this mark")
 def test_no_long_function_without_its_reason():
     found = unexplained_functions()
     assert not found, f"{len(found)} functions:\n" + "\n".join(found)
