@@ -2,6 +2,7 @@
 distribution over the next foothold, given the path from the root to the node being expanded."""
 from __future__ import annotations
 
+import functools
 import time
 
 import numpy as np
@@ -19,7 +20,7 @@ from planners.learned.lstm import FootstepDistribution, load_model
 from planners.search.robust import Robustness
 from planners.search.step_space import StepSpacePlanner, attempt_name
 from planners.search.loop import search
-from planners.search.tree import CostWeights, run_attempts
+from planners.search.tree import CostWeights
 
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
@@ -137,17 +138,19 @@ class LSTMGuidedPlanner(StepSpacePlanner):
             return None
         return core_window_settings(problem, self.net, self.temperature, self.floor)
 
-    def _plan(self, problem):
+    def searches(self, problem) -> list:
+        """(label, search) of each search a planning call tries in turn: the model's searches at each robustness
+        level (the grid's after the nominal ones with ``grid_fallback``), then the pruned search."""
         attempts = []
         for r in self.robustness_levels():
             # a lazy search draws the same samples whatever its branching, so a robust level tries it once
             branchings = self.attempts[:1] if r is not None and self.lazy else self.attempts
-            attempts += [(f"{attempt_name(r)}B={b}", lambda b=b, r=r: self._search(problem, b, r))
+            attempts += [(f"{attempt_name(r)}B={b}", functools.partial(self._search, problem, b, r))
                          for b in branchings]
             if self.grid_fallback and r is None:  # the whole grid, as Step-space searches it
-                attempts += [(f"grid {s:g} m", lambda s=s: StepSpacePlanner._search(self, problem, s))
+                attempts += [(f"grid {s:g} m", functools.partial(StepSpacePlanner._search, self, problem, s))
                              for s in self.spacings(problem.units)]
-        return run_attempts(self, problem, attempts + self.pruned_stage(problem))
+        return attempts + self.pruned_stage(problem)
 
     def _search(self, problem, branching, robust=None):
         window = self.core_window(problem)

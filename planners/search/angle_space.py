@@ -12,8 +12,8 @@ from planners.base import Plan, Planner, Problem
 from planners.core.grid import isolation
 from planners.core.tree import NO_GOAL, Children, child_costs
 from planners.search.loop import ADMIT_ALL, search
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, CostWeights,
-                                  SearchResult, clear_of_edges, run_attempts, warm_up)
+from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Attempts,
+                                  CostWeights, SearchResult, clear_of_edges, warm_up)
 
 
 class AngleSpacePlanner(Planner):
@@ -52,7 +52,11 @@ class AngleSpacePlanner(Planner):
         return search(problem, AngleExpansion(self, problem, branching), ADMIT_ALL, self.n_sequences, self.budget)
 
     def _plan(self, problem: Problem) -> Plan:
-        return run_attempts(self, problem, [(f"B={b}", lambda b=b: self._search(problem, b)) for b in self.branchings])
+        tried = Attempts(self.name, problem.target_x)
+        for b in self.branchings:
+            if tried.ended(f"B={b}", self._search(problem, b)):
+                break
+        return tried.plan()
 
 
 

@@ -24,7 +24,7 @@ from planners.core.robust import no_check
 from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
-                                  CostWeights, SearchResult, run_attempts)
+                                  Attempts, CostWeights, SearchResult)
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
 GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
@@ -250,13 +250,22 @@ class StepSpacePlanner(Planner):
         return tight
 
     def _plan(self, problem: Problem) -> Plan:
-        attempts = [(f"{attempt_name(r)}grid {s:g} m", lambda s=s, r=r: self._search(problem, s, r))
+        tried = Attempts(self.name, problem.target_x)
+        for label, attempt in self.searches(problem):
+            if tried.ended(label, attempt()):
+                break
+        return tried.plan()
+
+    def searches(self, problem: Problem) -> list:
+        """(label, search) of each search a planning call tries in turn: the grids at each robustness level, the
+        pruned search, then the last resort's grids."""
+        attempts = [(f"{attempt_name(r)}grid {s:g} m", functools.partial(self._search, problem, s, r))
                     for r, s in self.attempt_settings(problem.units)] + self.pruned_stage(problem)
         tight = self.last_resort(problem.units)
         if tight is not None:
             attempts += [(f"edge margin {tight.edge_margin:.3g} m grid {s:g} m",
-                          lambda s=s: tight._search(problem, s, None)) for s in tight.spacings(problem.units)]
-        return run_attempts(self, problem, attempts)
+                          functools.partial(tight._search, problem, s, None)) for s in tight.spacings(problem.units)]
+        return attempts
 
     def pruned_stage(self, problem: Problem) -> list:
         """The pruned search's attempt, [("pruned search", thunk)], where the planner runs one (see the class doc):

@@ -1,6 +1,6 @@
 """Best-first search over footstep trees (Algorithm 1 of the paper), as the search planners run it: the settings
-they share, the tree a search returns, and the planners' attempts (``run_attempts``); a search itself is
-``planners.search.loop.search``."""
+they share, the tree a search returns, and the record of the searches a planning call tries (``Attempts``); a
+search itself is ``planners.search.loop.search``."""
 from __future__ import annotations
 
 import functools
@@ -11,7 +11,7 @@ import numpy as np
 from drakeslip import Terrain, step_batch
 from drakeslip.compiled import compiling
 
-from planners.base import Budget, FootstepSequence, Plan, Planner, Problem
+from planners.base import FootstepSequence, Plan, Problem
 
 # The settings below in metres and m/s are the paper's hopper's; a search uses each in its hopper's units
 # (``Problem.units``: lengths times the length factor, speeds times the speed factor), so it does the same for every
@@ -127,26 +127,37 @@ class SearchResult:
 STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")   # by the stop codes of planners/core/tree.py
 
 
-def run_attempts(planner: Planner, problem: Problem, attempts) -> Plan:
-    """Run searches (label, thunk) in order until one finds a sequence; sum their work into one Plan. The safety
-    time limit ends the call (``Plan.time_limited``)."""
-    ode_calls = nodes = 0
-    stops = []
-    for label, attempt in attempts:
-        result = attempt()
-        ode_calls += result.ode_calls
-        nodes += result.nodes_expanded
-        stops.append(f"{label}: {result.stop}")
+class Attempts:
+    """The searches one planning call ran, in turn until one found a sequence or the safety time limit ended the
+    call (``Plan.time_limited``), their work summed into one ``Plan``. The planner runs each search and hands its
+    result here, so control stays with the planner."""
+
+    def __init__(self, planner: str, target_x: float):
+        self.planner, self.target_x = planner, target_x
+        self.ode_calls = self.nodes = 0
+        self.stops = []
+        self.found = None   # (label, result) of the search that found sequences
+
+    def ended(self, label: str, result: SearchResult) -> bool:
+        """Record the search ``label``'s result; True when the call ends: it found a sequence or ran out of time."""
+        self.ode_calls += result.ode_calls
+        self.nodes += result.nodes_expanded
+        self.stops.append(f"{label}: {result.stop}")
         if result.tree.goals:
+            self.found = label, result
+        return bool(result.tree.goals) or result.stop == "time"
+
+    def plan(self) -> Plan:
+        """The call's plan: the sequences of the search that found some, or why none was found."""
+        if self.found is not None:
+            (label, result), stops = self.found, self.stops
             before = f" (after {'; '.join(stops[:-1])})" if len(stops) > 1 else ""
-            return Plan(planner.name, True, problem.target_x, ode_calls, nodes_expanded=nodes,
+            return Plan(self.planner, True, self.target_x, self.ode_calls, nodes_expanded=self.nodes,
                         sequences=[result.tree.path(g) for g in result.tree.goals],
                         time_limited=result.stop == "time", message=f"found by {label}{before}")
-        if result.stop == "time":
-            break
-    return Plan(planner.name, False, problem.target_x, ode_calls, nodes_expanded=nodes,
-                message=f"no plan found to x={problem.target_x:.2f} ({'; '.join(stops)})",
-                time_limited=stops[-1].endswith(": time"))
+        return Plan(self.planner, False, self.target_x, self.ode_calls, nodes_expanded=self.nodes,
+                    message=f"no plan found to x={self.target_x:.2f} ({'; '.join(self.stops)})",
+                    time_limited=self.stops[-1].endswith(": time"))
 
 
 def run_depth(mask: np.ndarray) -> np.ndarray:
