@@ -6,8 +6,9 @@ For every planner label and every chosen case, the plan from the case's start ap
 saved as a plan file would save it and checked by verification/plan_check.py: CERTIFIED when the Drake run
 completes every hop with no failure, touches down within --tolerance of every foothold, reaches every predicted
 apex within --tolerance and reaches the plan's target; else the first mismatch. Finished cases are kept in
-OUT.cases.jsonl (a killed run resumes). The plans are made for the suite's hopper; --hopper (a hopper file or folder)
-must be that one, and a folder's weights are then read; the results record the hopper.
+OUT.cases.jsonl (a killed run resumes; a record is reused only by the code, options and weights that made it). The
+plans are made for the suite's hopper; --hopper (a hopper file or folder) must be that one, and a folder's weights
+are then read; the results record the hopper.
 
 Exit status: 0 when the checks ran (whatever their verdicts; a plan whose check stopped before a verdict is "simulation
 stopped"), 2 for a usage or input error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
@@ -63,27 +64,31 @@ def checked_inputs(ap: cli.ArgumentParser, args):
     return suite, hopper, specs, setup
 
 
-def certified(args, suite, hopper, specs, setup, executor) -> list[dict]:
-    """The record of each (planner, case), planners first, checked (or read from OUT.cases.jsonl)."""
+def certified(args, suite, hopper, specs, setup, executor, code: str) -> list[dict]:
+    """The record of each (planner, case), planners first, checked (or read from OUT.cases.jsonl, where the code
+    ``code`` wrote them)."""
     from tqdm import tqdm
 
     from drakeslip.jobs.runner import JsonLinesStore, run
     from planners.formats.suite import terrain_record
     from verification import certify
+    from verification.evaluation import weights_files
 
     # the paper's hopper is left out of the task (and its key), so its cached cases stay valid
     body = None if suite.hopper is None else asdict(hopper.params)
     cases = list(suite.cases[::args.every])[:args.cases]
+    # a cached record is used only for the same code (the store's stamp), planner options and weights files
+    setups = {label: [label, specs[label], weights_files(label, specs[label])] for label in specs}
     key = lambda label, c: hashlib.sha256(json.dumps(
-        [label, c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode, args.tolerance,
-         *([body] if body else [])], sort_keys=True).encode()).hexdigest()[:20]
+        [*setups[label], c.id, c.terrain.to_dict(), list(c.apex), suite.goal_x, suite.friction, args.mode,
+         args.tolerance, *([body] if body else [])], sort_keys=True, default=str).encode()).hexdigest()[:20]
     tasks = [(key(label, c), (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
                                suite.goal_x, suite.friction, args.mode, args.tolerance, body))
              for label in specs for c in cases]
     records = {}
     with tqdm(total=len(tasks), disable=args.quiet, unit="plan", desc=suite.name) as bar:
-        for k, record in run(certify.certify_case, tasks, JsonLinesStore(str(args.out) + ".cases.jsonl"), executor,
-                             setup):
+        store = JsonLinesStore(str(args.out) + ".cases.jsonl", certify.check_record, code)
+        for k, record in run(certify.certify_case, tasks, store, executor, setup):
             records[k] = record
             bar.update()
     return [records[k] for k, _ in tasks]
@@ -112,13 +117,15 @@ def main(argv=None) -> int:
     executor = cli.executor(args)
     suite, hopper, specs, setup = checked_inputs(ap, args)
     cli.announce(argv)
-    ordered = certified(args, suite, hopper, specs, setup, executor)
 
     from drakeslip.jobs.runner import write_json
-    from verification.provenance import provenance
+    from verification.provenance import code_version, provenance
+
+    code = code_version()   # the cached records are this code's, and the results file names it
+    ordered = certified(args, suite, hopper, specs, setup, executor, code)
 
     write_json(args.out, {"suite": suite.name, "hopper": hopper.to_record(), "mode": args.mode,
-                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance()})
+                          "tolerance": args.tolerance, "plans": ordered, "provenance": provenance(code)})
     report(specs, ordered)
     print(f"wrote {args.out}")
     return cli.OK

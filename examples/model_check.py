@@ -16,7 +16,8 @@ rests on:
   unknown                  the seconds or nodes ran out (a pass that had exhausted is named), or Drake rejected
                            the witnesses. The ceiling lies between "ceiling" and "at most" then.
 Each finished case is appended to OUT.cases.jsonl, so a killed run continues where it stopped (--no-resume
-starts over); a cached "unknown" is rerun when the budget is larger than the one it had. --jobs N checks N cases
+starts over); a cached verdict is reused only by the same code, and a cached "unknown" is rerun when the budget is
+larger than the one it had. --jobs N checks N cases
 at a time in separate processes (--executor ray: on a Ray cluster).
 
 Exit status: 0 done, 1 a planner crossed a case the oracle proved not traversable (--against), 2 a usage error,
@@ -145,17 +146,18 @@ def main(argv=None) -> int:
     from planners.base import Budget
     from verification.model_check import COARSE, LEVELS
     from verification.model_check_suite import check_suite
-    from verification.provenance import provenance
+    from verification.provenance import code_version, provenance
 
     cache = str(args.out) + ".cases.jsonl"
     if args.no_resume:
         remove(cache)
+    code = code_version()   # the cached verdicts are this code's, and the results file names it
     results = check_suite(suite, cases, cache, Budget(args.budget, max_time_s=args.seconds),
                           levels=(COARSE,) if args.no_refine else LEVELS, drake_check=not args.no_drake_check,
                           progress=not args.quiet, executor=executor, energy=not args.no_energy,
-                          confirm=args.confirm, parallel=args.parallel_steps)
+                          confirm=args.confirm, parallel=args.parallel_steps, code=code)
     results["budget"] = {"max_nodes": args.budget, "max_time_s": args.seconds}  # the config leaves it out
-    results["provenance"] = provenance()
+    results["provenance"] = provenance(code)
     write_json(args.out, results)
     report(suite, results)
     print(f"wrote {args.out}")

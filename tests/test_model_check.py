@@ -238,3 +238,36 @@ def test_cli_errors_name_the_bad_value(tmp_path, capsys, args, message, example)
     err = capsys.readouterr().err
     assert re.search(message, err) and len(err.splitlines()) == 1
     assert not (tmp_path / "o.json").exists()
+
+
+def test_a_verdict_cached_by_other_code_or_damaged_is_checked_again(tmp_path, monkeypatch):
+    """The cache holds a verdict for the code that made it (``code_version``): another code's is not reused, and a
+    line that is not a verdict (a field missing or of the wrong type) is skipped with a warning and run again."""
+    suite = make_suite("ditch", 7, 1, speeds=(2.0,), heights=(0.9,))
+    cases, cache, budget = mcs.select_cases(suite, 1), tmp_path / "o.json.cases.jsonl", Budget(20000, max_time_s=60.0)
+    first = mcs.check_suite(suite, cases, cache, budget, progress=False, code="git:one")
+    calls = []
+    real = mcs.model_check
+    monkeypatch.setattr(mcs, "model_check", lambda *a, **k: calls.append(1) or real(*a, **k))
+    assert mcs.check_suite(suite, cases, cache, budget, progress=False, code="git:one")["cases"] == first["cases"]
+    assert calls == []
+    mcs.check_suite(suite, cases, cache, budget, progress=False, code="git:two")
+    assert calls == [1]
+    lines = cache.read_text().splitlines()
+    damaged = json.loads(lines[-1])
+    damaged["result"]["budget"] = {"max_nodes": "many"}
+    cache.write_text("\n".join([*lines[:-1], json.dumps(damaged)]) + "\n")
+    again = mcs.check_suite(suite, cases, cache, budget, progress=False, code="git:two")
+    assert calls == [1, 1] and again["cases"][0]["verdict"] == first["cases"][0]["verdict"]
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"verdict": "maybe"}, "verdict must be one of"), ({"time_s": "1"}, "time_s must be a number"),
+    ({"holds_at": [1]}, "holds_at must be null or an object"), ({"budget": {"max_nodes": 1}}, "budget must be"),
+])
+def test_a_cached_verdict_of_the_wrong_shape_is_named(change, message):
+    record = {"verdict": mc.TRAVERSABLE, "time_s": 1.0, "holds_at": None,
+              "budget": {"max_nodes": 10, "max_time_s": 1.0}}
+    mcs.check_verdict_record(record)
+    with pytest.raises(ValueError, match=message):
+        mcs.check_verdict_record({**record, **change})

@@ -21,6 +21,30 @@ def prepare(specs: dict) -> None:
     _WORKER.update(controller=controller, planners=make_planners(specs, controller))
 
 
+VERDICTS = ("certified", "counterexample", "no plan", "malformed", "simulation stopped")
+
+
+def check_record(record) -> None:
+    """ValueError naming the field unless ``record`` is what ``certify_case`` returns, as a cache holds it: "label",
+    "id", "reason" strings, "verdict" one of VERDICTS, "hops" a count, "kind" null or a string, "hop" null or a
+    count."""
+    def require(ok: bool, name: str, kind: str):
+        if not ok:
+            value = record.get(name) if isinstance(record, dict) else record
+            raise ValueError(f"{name} must be {kind}, got {value!r}")
+
+    def is_count(value):
+        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
+
+    require(isinstance(record, dict), "the record", "an object")
+    for name in ("label", "id", "reason"):
+        require(isinstance(record.get(name), str), name, "a string")
+    require(record.get("verdict") in VERDICTS, "verdict", f"one of {VERDICTS}")
+    require(is_count(record.get("hops")), "hops", "a count")
+    require(record.get("kind") is None or isinstance(record["kind"], str), "kind", "null or a string")
+    require(record.get("hop") is None or is_count(record["hop"]), "hop", "null or a count")
+
+
 def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float,
                  hopper: dict | None = None) -> dict:
     """{"label", "id", "verdict", "reason", "hops", "kind", "hop"} for the first plan of ``label`` on ``case`` (a

@@ -18,8 +18,9 @@ from planners.formats.suite_draw import suite_hopper
 from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, NOT_TRAVERSABLE,
                                       PROVED_NOT_TRAVERSABLE, TRAVERSABLE, UNKNOWN,
                                       model_check, resolution_text)
+from verification.provenance import code_version
 
-CACHE_VERSION = 2      # bump when a change invalidates cached verdicts (2: proved verdicts, statements)
+VERDICTS = (TRAVERSABLE, NOT_TRAVERSABLE, PROVED_NOT_TRAVERSABLE, UNKNOWN)
 
 
 def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = None, ids=None) -> list[Case]:
@@ -43,7 +44,7 @@ def select_cases(suite: Suite, n_cases: int | None = None, seed: int | None = No
 
 def _config(levels, min_speed, drake_check, max_witnesses, energy=True, confirm=False) -> dict:
     return {"levels": [asdict(r) for r in levels], "min_speed": min_speed, "drake_check": drake_check,
-            "max_witnesses": max_witnesses, "energy": energy, "confirm": confirm, "version": CACHE_VERSION}
+            "max_witnesses": max_witnesses, "energy": energy, "confirm": confirm}
 
 
 def case_key(case: Case, goal_x: float, params: SlipParams, config: dict) -> str:
@@ -52,6 +53,29 @@ def case_key(case: Case, goal_x: float, params: SlipParams, config: dict) -> str
     blob = json.dumps([terrain_record(case.terrain), list(case.apex), goal_x, asdict(params), config],
                       sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def check_verdict_record(record) -> None:
+    """ValueError naming the field unless ``record`` is a verdict as ``check_suite`` reads one back from its cache:
+    "verdict" one of VERDICTS, "time_s" a number, "holds_at" null or an object, "budget" its "max_nodes" and
+    "max_time_s" as numbers."""
+    def bad(name, kind, value):
+        return ValueError(f"{name} must be {kind}, got {value!r}")
+
+    def is_number(value):
+        return not isinstance(value, bool) and isinstance(value, (int, float))
+
+    if not isinstance(record, dict):
+        raise bad("the verdict", "an object", record)
+    if record.get("verdict") not in VERDICTS:
+        raise bad("verdict", f"one of {VERDICTS}", record.get("verdict"))
+    if not is_number(record.get("time_s")):
+        raise bad("time_s", "a number", record.get("time_s"))
+    if record.get("holds_at") is not None and not isinstance(record["holds_at"], dict):
+        raise bad("holds_at", "null or an object", record["holds_at"])
+    budget = record.get("budget")
+    if not isinstance(budget, dict) or not all(is_number(budget.get(k)) for k in ("max_nodes", "max_time_s")):
+        raise bad("budget", "an object of max_nodes and max_time_s", budget)
 
 
 def summarize(records: list) -> dict:
@@ -83,12 +107,13 @@ def summarize(records: list) -> dict:
 def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget = DEFAULT_BUDGET,
                 levels=LEVELS, min_speed: float | None = None, drake_check: bool = True,
                 max_witnesses: int = MAX_WITNESSES, progress: bool = True, executor=None, energy: bool = True,
-                confirm: bool = False, parallel: bool = False) -> dict:
+                confirm: bool = False, parallel: bool = False, code: str | None = None) -> dict:
     """Run the oracle on ``cases`` of ``suite`` on ``executor`` (``drakeslip.jobs.executors``; default this
-    process). Each finished case is appended to ``cache_path`` (JSON lines) and reused by a later run with the
-    same settings; a cached ``unknown`` is rerun when the budget grew. The time budget is wall-clock per case, so
-    an executor should run no more cases at a time than it has cores (``parallel``: one case at a time, each
-    spreading its hops over every core)."""
+    process). Each finished case is appended to ``cache_path`` (JSON lines) and reused by a later run of the same
+    code (``code``, default ``code_version()``) with the same settings; a cached ``unknown`` is rerun when the
+    budget grew, and a damaged cached verdict (``check_verdict_record``) is skipped with a warning and run again.
+    The time budget is wall-clock per case, so an executor should run no more cases at a time than it has cores
+    (``parallel``: one case at a time, each spreading its hops over every core)."""
     from tqdm import tqdm
 
     config = _config(levels, min_speed, drake_check, max_witnesses, energy, confirm)
@@ -106,7 +131,7 @@ def check_suite(suite: Suite, cases: list[Case], cache_path=None, budget: Budget
             held["budget"]["max_nodes"] >= budget.max_nodes and held["budget"]["max_time_s"] >= budget.max_time_s)
 
     records = {}
-    store = JsonLinesStore(cache_path) if cache_path else None
+    store = JsonLinesStore(cache_path, check_verdict_record, code or code_version()) if cache_path else None
     with tqdm(total=len(tasks), desc=f"model check {suite.name}", unit="case", disable=not progress) as bar:
         for key, result in run(_checked, tasks, store, executor, reuse=reuse):
             records[key] = result
