@@ -74,7 +74,7 @@ def certified(args, suite, hopper, specs, setup, executor, code: str) -> list[di
     from verification import certify
     from verification.evaluation import weights_files
 
-    # the paper's hopper is left out of the task (and its key), so its cached cases stay valid
+    # the paper's hopper is left out of the task and its key: None is the worker's default hopper
     body = None if suite.hopper is None else asdict(hopper.params)
     cases = list(suite.cases[::args.every])[:args.cases]
     # a cached record is used only for the same code (the store's stamp), planner options and weights files
