@@ -7,6 +7,7 @@ from drakeslip.hopper_file import hopper_for, params_from_fields
 from drakeslip.state import SimulationCrash
 from drakeslip.units import units_of
 
+from planners.formats.case_record import field, is_count, is_text, require
 from planners.formats.plan import PlanRecord
 from planners.formats.suite import suite_from_dict
 from planners.registry import make_planners
@@ -25,24 +26,16 @@ VERDICTS = ("certified", "counterexample", "no plan", "malformed", "simulation s
 
 
 def check_record(record) -> None:
-    """ValueError naming the field unless ``record`` is what ``certify_case`` returns, as a cache holds it: "label",
-    "id", "reason" strings, "verdict" one of VERDICTS, "hops" a count, "kind" null or a string, "hop" null or a
-    count."""
-    def require(ok: bool, name: str, kind: str):
-        if not ok:
-            value = record.get(name) if isinstance(record, dict) else record
-            raise ValueError(f"{name} must be {kind}, got {value!r}")
-
-    def is_count(value):
-        return isinstance(value, int) and not isinstance(value, bool) and value >= 0
-
-    require(isinstance(record, dict), "the record", "an object")
-    for name in ("label", "id", "reason"):
-        require(isinstance(record.get(name), str), name, "a string")
-    require(record.get("verdict") in VERDICTS, "verdict", f"one of {VERDICTS}")
-    require(is_count(record.get("hops")), "hops", "a count")
-    require(record.get("kind") is None or isinstance(record["kind"], str), "kind", "null or a string")
-    require(record.get("hop") is None or is_count(record["hop"]), "hop", "null or a count")
+    """ValueError naming the field (KeyError for one missing) unless ``record`` is what ``certify_case`` returns, as
+    a cache holds it: "label", "id", "reason" strings, "verdict" one of VERDICTS, "hops" a count, "kind" null or a
+    string, "hop" null or a count (the case record's checks, ``planners.formats.case_record``)."""
+    require(isinstance(record, dict), "the record", "an object", record)
+    for name, kind, test in (("label", "a string", is_text), ("id", "a string", is_text),
+                             ("reason", "a string", is_text), ("verdict", f"one of {VERDICTS}", VERDICTS.__contains__),
+                             ("hops", "a count", is_count),
+                             ("kind", "null or a string", lambda v: v is None or is_text(v)),
+                             ("hop", "null or a count", lambda v: v is None or is_count(v))):
+        field(record, name, kind, test)
 
 
 def certify_case(label: str, case: dict, goal_x: float, friction: float, mode: str, tolerance: float,

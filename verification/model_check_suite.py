@@ -13,6 +13,7 @@ from drakeslip import SlipParams
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.base import Budget
+from planners.formats.case_record import field, is_number, require
 from planners.formats.suite import Case, Suite, terrain_record
 from planners.formats.suite_draw import suite_hopper
 from verification.model_check import (DEFAULT_BUDGET, LEVELS, MAX_WITNESSES, NOT_TRAVERSABLE,
@@ -56,26 +57,17 @@ def case_key(case: Case, goal_x: float, params: SlipParams, config: dict) -> str
 
 
 def check_verdict_record(record) -> None:
-    """ValueError naming the field unless ``record`` is a verdict as ``check_suite`` reads one back from its cache:
-    "verdict" one of VERDICTS, "time_s" a number, "holds_at" null or an object, "budget" its "max_nodes" and
-    "max_time_s" as numbers."""
-    def bad(name, kind, value):
-        return ValueError(f"{name} must be {kind}, got {value!r}")
-
-    def is_number(value):
-        return not isinstance(value, bool) and isinstance(value, (int, float))
-
-    if not isinstance(record, dict):
-        raise bad("the verdict", "an object", record)
-    if record.get("verdict") not in VERDICTS:
-        raise bad("verdict", f"one of {VERDICTS}", record.get("verdict"))
-    if not is_number(record.get("time_s")):
-        raise bad("time_s", "a number", record.get("time_s"))
-    if record.get("holds_at") is not None and not isinstance(record["holds_at"], dict):
-        raise bad("holds_at", "null or an object", record["holds_at"])
-    budget = record.get("budget")
-    if not isinstance(budget, dict) or not all(is_number(budget.get(k)) for k in ("max_nodes", "max_time_s")):
-        raise bad("budget", "an object of max_nodes and max_time_s", budget)
+    """ValueError naming the field (KeyError for one missing) unless ``record`` is a verdict as ``check_suite`` reads
+    one back from its cache: "verdict" one of VERDICTS, "time_s" a number, "holds_at" null or an object, "budget"
+    its "max_nodes" and "max_time_s" as numbers (the case record's checks, ``planners.formats.case_record``)."""
+    require(isinstance(record, dict), "the verdict", "an object", record)
+    for name, kind, test in (("verdict", f"one of {VERDICTS}", VERDICTS.__contains__),
+                             ("time_s", "a number", is_number),
+                             ("holds_at", "null or an object", lambda v: v is None or isinstance(v, dict)),
+                             ("budget", "an object of max_nodes and max_time_s",
+                              lambda v: isinstance(v, dict) and all(is_number(v.get(k))
+                                                                    for k in ("max_nodes", "max_time_s")))):
+        field(record, name, kind, test)
 
 
 def summarize(records: list) -> dict:
