@@ -64,6 +64,16 @@ class Timing:
                 "search_s": search}
 
 
+def footholds_to_fly(success: bool, footholds, safe_footholds, k: int | None = None):
+    """The footholds a loop flies before it plans again, at most ``k`` (None: no limit): a plan's, or, where it found
+    no sequence to the target, its safe hops' but the last (the hop known to exist after them) when there are two or
+    more; none without either. Takes a Plan's arrays or its record's lists (``Plan.summary``)."""
+    if success or safe_footholds is None or len(safe_footholds) == 0:
+        return footholds[:k] if success else footholds[:0]
+    n = max(len(safe_footholds) - 1, 1)
+    return safe_footholds[:n if k is None else min(k, n)]
+
+
 @dataclass
 class Plan:
     """The result of ``planner.plan``: ``success`` with the best sequence in ``footholds``/``leg_angles``/
@@ -71,7 +81,10 @@ class Plan:
     ``message`` saying why no plan was found. ``target_x`` is what the plan aimed to pass: the goal, or the
     edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations.
     ``time_limited``: the wall-clock safety limit stopped the planner (a result that depends on the machine).
-    ``timing``: where ``time_s`` went (``Timing.record``), for the planners that account for it."""
+    ``timing``: where ``time_s`` went (``Timing.record``), for the planners that account for it. ``safe_hops``:
+    where no sequence reaches the target, the hops that keep the hopper alive longest and best placed to plan again
+    (the deepest branch its searches grew, for the planners asked for it), None where there are none; a plan with
+    them is still ``success=False``, and its message says it holds them."""
 
     planner: str
     success: bool
@@ -83,6 +96,7 @@ class Plan:
     sequences: list = field(default_factory=list)
     time_limited: bool = False
     timing: dict | None = None
+    safe_hops: FootstepSequence | None = None
 
     @property
     def best(self) -> FootstepSequence | None:
@@ -104,12 +118,18 @@ class Plan:
     def alternatives(self) -> list:
         return self.sequences[1:]
 
+    def to_fly(self, k: int | None = None) -> np.ndarray:
+        """The footholds a loop flies before it plans again, at most ``k`` (``footholds_to_fly``)."""
+        return footholds_to_fly(self.success, self.footholds, None if self.safe_hops is None else
+                                self.safe_hops.footholds, k)
+
     def summary(self) -> dict:
         """The per-planning-call record the evaluation writes."""
         return {"success": self.success, "message": self.message, "ode_calls": self.ode_calls,
                 "t_plan_s": self.time_s, "nodes_expanded": self.nodes_expanded, "target_x": self.target_x,
                 "footholds": self.footholds.tolist(), "time_limited": self.time_limited,
-                **({"timing": self.timing} if self.timing is not None else {})}
+                **({"timing": self.timing} if self.timing is not None else {}),
+                **({"safe_footholds": self.safe_hops.footholds.tolist()} if self.safe_hops is not None else {})}
 
 
 @dataclass(frozen=True)

@@ -49,10 +49,10 @@ def _run_on_template(planner, controller, case, goal_x: float, params: SlipParam
         angle_errors = None if noise.silent else noise.angle_errors(rng, k)
         call = replanner.plan(apex, None if apex_errors is None else apex_errors[0], rng)
         plans.append(call.record)
-        if call.plan is None or not call.plan.success:
+        if call.plan is None or not (call.plan.success or call.plan.safe_hops is not None):
             failure, final_x = "NO_PLAN", apex.x
             break
-        footholds = call.plan.footholds[:k].tolist()
+        footholds = call.plan.to_fly(k).tolist()   # where no plan reaches the goal: its safe hops
         if not footholds:  # the robot believes it is past the goal already: it stops where it is
             failure, final_x = (None if apex.x >= goal_x else "STOPPED_SHORT"), apex.x
             break
@@ -105,7 +105,8 @@ class PlanRecorder:
 
 def executed_plans(plans, records):
     """(planned footholds, predicted apexes) of the hops that ran, as a replay draws them: the first k footholds
-    and apexes of each Plan in ``plans`` (``PlanRecorder.plans``), k the number of footholds its record of
-    ``records`` (a run's "plans", on either backend) says were executed."""
-    executed = [(plan, len(record["executed"])) for plan, record in zip(plans, records) if "executed" in record]
-    return [x for plan, k in executed for x in plan.footholds[:k]], [a for plan, k in executed for a in plan.apexes[:k]]
+    and apexes of each Plan in ``plans`` (``PlanRecorder.plans``; its safe hops' where it found no plan), k the
+    number of footholds its record of ``records`` (a run's "plans", on either backend) says were executed."""
+    executed = [(plan.best if plan.success else plan.safe_hops, len(record["executed"]))
+                for plan, record in zip(plans, records) if record.get("executed")]
+    return [x for hops, k in executed for x in hops.footholds[:k]], [a for hops, k in executed for a in hops.apexes[:k]]

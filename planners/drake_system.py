@@ -29,7 +29,8 @@ from drakeslip.multibody.failures import HopMonitor
 from drakeslip.multibody.pump import EnergyPump
 from drakeslip.multibody.robot import RobotParams, StateLayout
 from drakeslip.simulation import advance
-from planners.replanning import ClosedLoopConfig, Replanner, case_result, case_seed, drawn_hopper
+from planners.replanning import (ClosedLoopConfig, Replanner, case_result, case_seed, drawn_hopper,
+                                 flown_footholds)
 
 RISING = 0.2       # [m/s] a body rising faster than this is in flight toward an apex (not jostled by its leg)
 # The robot's loop as ``run_closed_loop`` runs it unless told otherwise: noiseless, replanning at every apex.
@@ -141,14 +142,19 @@ class FootstepPlannerSystem(LeafSystem):
         record, seen = call.record, call.seen
         record["stamp"] = stamp
         success = record["success"]
-        pump = self.pump is not None and self.pump.wanted(call.plan.apexes if success else None, seen, call.sensed,
-                                                          params.gravity, log.pumps_without_plan())
+        pumps, gravity = log.pumps_without_plan(), params.gravity
+        # with no plan the robot hops in place, raising its energy, where the ground has room for it: that commits it
+        # to nothing, where a safe hop (the plan's ``safe_footholds``, flown otherwise) takes it on toward the obstacle
+        in_place = not success and self.pump is not None and self.pump.wanted(None, seen, call.sensed, gravity, pumps)
+        flown = () if in_place else flown_footholds(record)
+        pump = in_place or self.pump is not None and self.pump.wanted(call.plan.apexes if success else None, seen,
+                                                                      call.sensed, gravity, pumps, bool(flown))
         # energy None: the controller keeps each apex's energy, as the template the plan was made for does
         energy = self.pump.energy(seen, params.gravity) if pump else None
         if pump:
             record["pumped"] = self.pump.rise
         errors_told = (tuple(float(e) for e in (np.zeros(3) if error is None else error)),)
-        command = FootholdCommand(tuple(record["footholds"]) if success else (), call.sensed, energy, stamp,
+        command = FootholdCommand(tuple(flown), call.sensed, energy, stamp,
                                   seen.xdot if pump else 0.0, errors_told)
         return command, PlanningLog(rng, log.records + (record,))
 
@@ -244,12 +250,12 @@ def executed_records(records, log) -> list:
     records = [dict(record) for record in records]
     commanded = {}
     for record in records:
-        if record["success"]:
+        if record["success"] or "safe_footholds" in record:
             record["executed"] = []
             commanded[record["stamp"]] = record
     for x, (stamp, index) in zip(log.footholds, log.aimed):
         record = commanded.get(stamp)
-        if record is not None and index < len(record["footholds"]):
+        if record is not None and index < len(flown_footholds(record)):
             record["executed"].append(float(x))
     return records
 
@@ -273,7 +279,8 @@ class _GoalMonitor(HopMonitor):
         apexes = self.log.apexes
         if apexes and apexes[-1].x >= self.goal_x:
             self.outcome = "goal"
-        elif records and not records[-1]["success"] and "pumped" not in records[-1]:
+        elif records and not (records[-1]["success"] or "safe_footholds" in records[-1]
+                              or "pumped" in records[-1]):
             self.outcome = "NO_PLAN"
         elif len(self.log.footholds) >= self.max_hops:
             self.outcome = "HOP_CAP"

@@ -18,6 +18,8 @@ from drakeslip.rollout import ROLLOUT_BACKENDS
 from drakeslip.terrain import Terrain, check_window
 from drakeslip.units import units_of
 
+from planners.base import footholds_to_fly
+
 EXECUTED_PER_PLAN = 3   # footholds executed before replanning (the paper's protocol)
 MAX_HOPS = 60           # a case that has not reached the goal after this many hops fails ("hop cap")
 GOAL_SIGMAS = 5.0       # under state noise the planners aim this many standard deviations of x past the goal
@@ -156,6 +158,12 @@ class Replanner:
         if not self.noise.silent:
             record["seen_apex"] = list(seen)
         return PlanningCall(plan, record, seen, sensed)
+
+
+def flown_footholds(record: dict) -> list:
+    """The footholds a planning call's ``record`` (``PlanningCall.record``) has the loop fly before it plans again:
+    its plan's, or its safe hops' (``planners.base.footholds_to_fly``)."""
+    return footholds_to_fly(record["success"], record["footholds"], record.get("safe_footholds"))
 
 
 def case_result(case_id: str, failure: str | None, final_x: float, plans: list,

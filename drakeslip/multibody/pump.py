@@ -46,14 +46,16 @@ class EnergyPump:
         length = units_of(params).length
         return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length, stance_time(robot.slip))
 
-    def wanted(self, planned_apexes, seen: ApexState, sensed: Terrain, gravity: float, pumps_in_a_row: int) -> bool:
+    def wanted(self, planned_apexes, seen: ApexState, sensed: Terrain, gravity: float, pumps_in_a_row: int,
+               safe_hop: bool = False) -> bool:
         """Whether the robot pumps from the apex ``seen`` on the map ``sensed``: with a plan (its
-        ``planned_apexes``), where its leg cannot swing through one of them (``needed``); with none (None), where
-        the ground has ``room`` for a hop in place, unless the last ``pumps_in_a_row`` hops pumped without a plan
-        PUMPS_WITHOUT_PLAN times."""
+        ``planned_apexes``), where its leg cannot swing through one of them (``needed``); with none (None), unless
+        the last ``pumps_in_a_row`` hops pumped without a plan PUMPS_WITHOUT_PLAN times, while it flies a safe hop
+        (``safe_hop``: to regain the energy from which a plan exists) or where the ground has ``room`` for a hop in
+        place."""
         if planned_apexes is not None:
             return self.needed(planned_apexes, sensed)
-        return pumps_in_a_row < PUMPS_WITHOUT_PLAN and self.room(seen, sensed, gravity)
+        return pumps_in_a_row < PUMPS_WITHOUT_PLAN and (safe_hop or self.room(seen, sensed, gravity))
 
     def energy(self, seen: ApexState, gravity: float) -> float:
         """The energy per kg of body [J/kg] the stance after the apex ``seen`` aims at: an apex ``rise`` higher."""

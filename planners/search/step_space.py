@@ -68,7 +68,10 @@ class StepSpacePlanner(Planner):
     planner (``robustness`` with ``fallback_nominal``) runs the nominal search once more with footholds only
     ``last_resort_margin`` of ``edge_margin`` from an edge (default LAST_RESORT_MARGIN; None skips it): a robot left
     without a plan fails for sure, and one whose noisy map or apex puts the only footholds past a ditch a few
-    millimetres inside the margin can still make it; the message then names that edge margin.
+    millimetres inside the margin can still make it; the message then names that edge margin. Where even that
+    finds nothing, a planner with ``safe_hops`` returns the safest branch its searches grew (``Plan.safe_hops``,
+    ``planners.search.tree.Attempts``): hops that keep the hopper alive while it regains the energy or position
+    from which a plan exists, rather than no hop at all.
 
     ``step_map="drake"`` simulates every candidate on the Drake hybrid simulator instead of the fast step map
     (about 0.1 s a hop against 5 us): planning on the reference model, where a plan's time is its ODE
@@ -84,8 +87,10 @@ class StepSpacePlanner(Planner):
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, step_map: str = "fast",
                  robustness: Robustness | dict | None = None, fallback_nominal: bool = True,
-                 pruned_nodes: int = PRUNED_NODES, last_resort_margin: float | None = LAST_RESORT_MARGIN, **budget):
+                 pruned_nodes: int = PRUNED_NODES, last_resort_margin: float | None = LAST_RESORT_MARGIN,
+                 safe_hops: bool = False, **budget):
         super().__init__(**budget)
+        self.safe_hops = bool(safe_hops)
         if isinstance(pruned_nodes, bool) or not isinstance(pruned_nodes, int) or pruned_nodes < 0:
             raise ValueError(f"pruned_nodes must be a non-negative integer (0: no pruned stage), got {pruned_nodes!r}")
         self.pruned_nodes = pruned_nodes
@@ -250,7 +255,7 @@ class StepSpacePlanner(Planner):
         return tight
 
     def _plan(self, problem: Problem) -> Plan:
-        tried = Attempts(self.name, problem.target_x)
+        tried = Attempts(self.name, problem.target_x, self.safe_hops)
         for label, attempt in self.searches(problem):
             if tried.ended(label, attempt()):
                 break

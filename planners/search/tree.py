@@ -125,18 +125,26 @@ class SearchResult:
 
 
 STOPS = ("goals", "exhausted", "nodes", "ode_calls", "time")   # by the stop codes of planners/core/tree.py
+# Hops of a branch that make it safer than a shorter one: a loop flies at most three of a plan's hops (the paper's
+# protocol) and keeps one it knows exists after them. Deeper branches rank by the speed they end with: the template
+# keeps its energy, and one that trades speed for height slows toward the least speed its hops may keep.
+SAFE_DEPTH = 4
 
 
 class Attempts:
     """The searches one planning call ran, in turn until one found a sequence or the safety time limit ended the
     call (``Plan.time_limited``), their work summed into one ``Plan``. The planner runs each search and hands its
-    result here, so control stays with the planner."""
+    result here, so control stays with the planner. With ``safe_hops``, a call that finds no sequence returns the
+    safest branch its searches grew (``Plan.safe_hops``): the deepest, up to SAFE_DEPTH hops, the earlier search's
+    (the more robust) where two are as deep, then the one ending fastest."""
 
-    def __init__(self, planner: str, target_x: float):
+    def __init__(self, planner: str, target_x: float, safe_hops: bool = False):
         self.planner, self.target_x = planner, target_x
         self.ode_calls = self.nodes = 0
         self.stops = []
         self.found = None   # (label, result) of the search that found sequences
+        self.safe_hops = safe_hops
+        self.safest = None   # (capped depth, label, tree, node) of the safest branch so far, with ``safe_hops``
 
     def ended(self, label: str, result: SearchResult) -> bool:
         """Record the search ``label``'s result; True when the call ends: it found a sequence or ran out of time."""
@@ -145,7 +153,19 @@ class Attempts:
         self.stops.append(f"{label}: {result.stop}")
         if result.tree.goals:
             self.found = label, result
+        elif self.safe_hops:
+            self.keep_safest(label, result.tree)
         return bool(result.tree.goals) or result.stop == "time"
+
+    def keep_safest(self, label: str, tree: SearchTree) -> None:
+        """Keep ``tree``'s safest branch where it is deeper (capped at SAFE_DEPTH) than the one kept."""
+        if len(tree) < 2:
+            return
+        depth = np.minimum(np.asarray(tree.depth[1:]), SAFE_DEPTH)
+        speed = np.asarray(tree.apex[1:], dtype=float)[:, 2]
+        node = 1 + int(np.lexsort((-speed, -depth))[0])
+        if self.safest is None or depth[node - 1] > self.safest[0]:
+            self.safest = int(depth[node - 1]), label, tree, node
 
     def plan(self) -> Plan:
         """The call's plan: the sequences of the search that found some, or why none was found."""
@@ -155,9 +175,14 @@ class Attempts:
             return Plan(self.planner, True, self.target_x, self.ode_calls, nodes_expanded=self.nodes,
                         sequences=[result.tree.path(g) for g in result.tree.goals],
                         time_limited=result.stop == "time", message=f"found by {label}{before}")
-        return Plan(self.planner, False, self.target_x, self.ode_calls, nodes_expanded=self.nodes,
-                    message=f"no plan found to x={self.target_x:.2f} ({'; '.join(self.stops)})",
-                    time_limited=self.stops[-1].endswith(": time"))
+        message = f"no plan found to x={self.target_x:.2f} ({'; '.join(self.stops)})"
+        safe = None
+        if self.safest is not None:
+            _, label, tree, node = self.safest
+            safe = tree.path(node)
+            message += f"; {len(safe)} safe hops to x={safe.footholds[-1]:.2f} by {label}"
+        return Plan(self.planner, False, self.target_x, self.ode_calls, nodes_expanded=self.nodes, message=message,
+                    time_limited=self.stops[-1].endswith(": time"), safe_hops=safe)
 
 
 def run_depth(mask: np.ndarray) -> np.ndarray:
