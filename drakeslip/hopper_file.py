@@ -31,7 +31,8 @@ from dataclasses import asdict, dataclass
 from pathlib import Path
 
 from drakeslip.jobs.files import MANIFEST, atomic_write, first_line, manifest_entries, read_json, record_digest, sha256
-from drakeslip.params import SlipParams, check_name, check_number
+from drakeslip.apex_correction import ApexCorrection
+from drakeslip.params import RobotTemplate, SlipParams, check_name, check_number
 from drakeslip.units import HopperUnits
 
 HOPPER_FORMAT = "drakeslip-hopper/1"
@@ -41,7 +42,7 @@ PARAM_FIELDS = ("mass", "leg_length", "stiffness", "gravity", "friction", "min_l
 REQUIRED = ("mass", "leg_length", "stiffness")
 # What makes the hopper: every parameter but the friction, which runs take from the ground (a suite's, a plan's).
 BODY_FIELDS = ("mass", "leg_length", "stiffness", "gravity", "min_leg_length")
-FIELDS = ("format", "name", *PARAM_FIELDS, "stroke")
+FIELDS = ("format", "name", *PARAM_FIELDS, "stroke", "correction")
 
 
 @dataclass(frozen=True)
@@ -104,8 +105,10 @@ def params_from_fields(d: dict, source: str) -> SlipParams:
         raise ValueError(f"{source}: {error}") from None
 
 
-def hopper_from_dict(d, source: str, default_name: str) -> tuple[SlipParams, str]:
-    """(params, name) from a hopper document; any bad field raises ValueError naming ``source`` and the field."""
+def hopper_from_dict(d, source: str, default_name: str, folder: Path | None = None) -> tuple[SlipParams, str]:
+    """(params, name) from a hopper document; any bad field raises ValueError naming ``source`` and the field. A
+    "correction" ({"file": a correction weights file beside the hopper file, in ``folder``, "sha256": its digest})
+    makes the params a ``RobotTemplate``."""
     if not isinstance(d, dict):
         raise ValueError(f"{source} must hold a table of fields, got {type(d).__name__}")
     unknown = [key for key in d if key not in FIELDS]
@@ -114,7 +117,22 @@ def hopper_from_dict(d, source: str, default_name: str) -> tuple[SlipParams, str
     if "format" in d and d["format"] != HOPPER_FORMAT:
         raise ValueError(f"{source}: format must be {HOPPER_FORMAT!r}, got {d['format']!r}")
     name = check_name(d.get("name", default_name), f"{source}: name")
-    return params_from_fields({k: v for k, v in d.items() if k not in ("format", "name")}, source), name
+    params = params_from_fields({k: v for k, v in d.items() if k not in ("format", "name", "correction")}, source)
+    if "correction" in d:
+        params = RobotTemplate(**asdict(params), correction=named_correction(d["correction"], source, folder))
+    return params, name
+
+
+def named_correction(entry, source: str, folder: Path | None) -> ApexCorrection:
+    """The correction a hopper document's "correction" entry names, its file read and checked against its digest."""
+    if not (isinstance(entry, dict) and set(entry) == {"file", "sha256"} and isinstance(entry["file"], str)
+            and isinstance(entry["sha256"], str) and Path(entry["file"]).name == entry["file"] and folder is not None):
+        raise ValueError(f'{source}: correction must be {{"file": a file name beside the hopper file, "sha256": its '
+                         f'digest}}, got {entry!r}')
+    try:
+        return ApexCorrection(entry["sha256"], str(folder / entry["file"]))
+    except ValueError as error:
+        raise ValueError(f"{source}: {error}") from None
 
 
 def load_hopper(path) -> NamedHopper:
@@ -146,7 +164,7 @@ def load_hopper(path) -> NamedHopper:
         if expected is not None and expected != digest:
             raise ValueError(f"{source} does not match its SHA-256 in {folder / MANIFEST} (expected "
                              f"{expected[:16]}..., got {digest[:16]}...): it was changed after the folder was written")
-    params, name = hopper_from_dict(document, source, path.stem if folder is None else folder.name)
+    params, name = hopper_from_dict(document, source, path.stem if folder is None else folder.name, path.parent)
     return NamedHopper(params, name, digest, path, folder)
 
 
@@ -168,8 +186,13 @@ def check_folder_files(folder: Path) -> None:
 
 
 def hopper_document(hopper: NamedHopper) -> dict:
-    """The JSON document ``save_hopper`` writes: the format, the name and every parameter."""
-    return {"format": HOPPER_FORMAT, "name": hopper.name, **asdict(hopper.params)}
+    """The JSON document ``save_hopper`` writes: the format, the name and every parameter (a correction named by its
+    file's name: it must lie beside the hopper file)."""
+    fields = {name: getattr(hopper.params, name) for name in PARAM_FIELDS}
+    correction = getattr(hopper.params, "correction", None)
+    if correction is not None:
+        fields["correction"] = {"file": Path(correction.path).name, "sha256": correction.sha256}
+    return {"format": HOPPER_FORMAT, "name": hopper.name, **fields}
 
 
 def save_hopper(hopper: NamedHopper, path) -> NamedHopper:

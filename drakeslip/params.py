@@ -3,10 +3,11 @@ from __future__ import annotations
 
 import math
 import numbers
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from drakeslip.apex_correction import ApexCorrection
 from drakeslip.bounds import FRICTION, GRAVITY, LEG_LENGTH, MASS, STIFFNESS, Bound
 
 # Default spring stroke: the leg bottoms out after compressing by 40 % of its rest length, the stroke of a
@@ -100,9 +101,44 @@ class SlipParams:
         return math.atan(self.friction)
 
     def with_friction(self, friction: float) -> "SlipParams":
-        return SlipParams(self.mass, self.leg_length, self.stiffness, self.gravity, friction, self.min_leg_length)
+        return replace(self, friction=friction)
 
     def as_array(self):
         """(mass, leg_length, stiffness, gravity, friction, min_leg_length) for the compiled kernels."""
         return np.array([self.mass, self.leg_length, self.stiffness, self.gravity, self.friction,
                          self.min_leg_length], dtype=np.float64)
+
+
+@dataclass(frozen=True)
+class RobotTemplate(SlipParams):
+    """A SLIP template that stands for a robot: the SLIP's parameters fitted to the robot's hops, and ``correction``,
+    the learned correction of its apex-to-apex map toward the robot's (``drakeslip.apex_correction``; a record's
+    {"sha256", "path"} is read back as one, its file checked). The planners' compiled searches and robust checks
+    step it as the SLIP and add the correction to each next apex; everything else (the Drake SLIP, the Python step
+    map, the template's rollouts) steps the SLIP alone."""
+
+    correction: ApexCorrection | None = None
+
+    def __post_init__(self):
+        super().__post_init__()
+        if isinstance(self.correction, dict):
+            object.__setattr__(self, "correction", ApexCorrection(**self.correction))
+        if not isinstance(self.correction, ApexCorrection):
+            raise ValueError(f"RobotTemplate.correction must be an ApexCorrection, got {self.correction!r}")
+
+    @property
+    def slip(self) -> SlipParams:
+        """The SLIP alone, without the correction."""
+        return SlipParams(self.mass, self.leg_length, self.stiffness, self.gravity, self.friction, self.min_leg_length)
+
+    def as_array(self):
+        """``SlipParams.as_array`` followed by the correction's network (``ApexCorrection.packed``)."""
+        return np.concatenate([super().as_array(), self.correction.packed()])
+
+
+def params_from_record(record: dict) -> SlipParams:
+    """The hopper of a record's "params" (``dataclasses.asdict`` of one): a ``RobotTemplate`` where it names a
+    correction, else ``SlipParams``."""
+    if record.get("correction") is not None:
+        return RobotTemplate(**record)
+    return SlipParams(**{k: v for k, v in record.items() if k != "correction"})

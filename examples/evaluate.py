@@ -71,6 +71,10 @@ def arguments() -> cli.ArgumentParser:
     ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",
                     help="what executes the plans: the Drake simulator of the SLIP (the protocol), the fast step "
                          "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
+    ap.add_argument("--template", type=cli.input_file, default=None,
+                    help="multibody backend: the template hopper file the planners plan for (default: the one fitted "
+                         "to the robot, drakeslip/multibody/template.json; drakeslip/multibody/template_corrected.json "
+                         "adds the learned correction of its apex-to-apex map, examples/fit_correction.py)")
     ap.add_argument("--no-pump", action="store_true",
                     help="ablation, multibody backend: the robot does not raise its apex with its leg actuator "
                          "where a plan skims the ground (drakeslip.multibody.pump.EnergyPump)")
@@ -108,10 +112,16 @@ def loop_configs(ap: cli.ArgumentParser, args, labels: list[str]) -> dict:
         except ValueError as error:
             ap.error(f"--map-filter: {error}")
     if args.backend == "multibody":   # the planners plan for the template fitted to the robot, when there is one
+        from drakeslip.hopper_file import load_hopper
         from drakeslip.multibody.fit import fitted_template
 
-        loop_options["template"] = fitted_template()
+        try:
+            loop_options["template"] = fitted_template() if args.template is None else load_hopper(args.template).params
+        except (OSError, ValueError) as error:
+            ap.error(f"--template: {error}")
         loop_options["pump_energy"] = not args.no_pump
+    elif args.template is not None:
+        ap.error(f"--template needs --backend multibody, got --backend {args.backend}")
     return {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
                                     refine=not args.mlp_only, noise=args.noise, seed=args.seed)
             for label in labels}

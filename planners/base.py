@@ -164,6 +164,9 @@ class Problem:
     target_x: float     # a sequence is complete when a foothold passes this x
     deadline: float     # time.perf_counter() value at which the planner must stop
     timing: Timing = field(default_factory=Timing)  # where the call's time goes, filled in as it runs
+    # the hop that reached ``apex`` as a template's learned correction takes it (``drakeslip.apex_correction``):
+    # (apex height above its foothold, speed, foothold ahead, 1), zeros where it is not known
+    before: np.ndarray = field(default_factory=lambda: np.zeros(4))
 
 
 class Planner(ABC):
@@ -184,9 +187,12 @@ class Planner(ABC):
         self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
         self.horizon = None if horizon is None else check_number(horizon, "horizon", positive=True, bound=HORIZON)
 
-    def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None) -> Plan:
+    def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, before=None) -> Plan:
+        """Plan from ``apex`` over ``terrain`` to ``goal_x`` for the hopper ``params``; ``before``: the hop that
+        reached ``apex``, (x, z, xdot) of the apex it started from and its foothold x, which a robot's template with
+        a learned correction predicts the next hop from (None: not known)."""
         t0 = time.perf_counter()
-        problem = self.problem(apex, terrain, goal_x, params, t0)
+        problem = self.problem(apex, terrain, goal_x, params, t0, before)
         if problem.apex.x >= problem.goal_x:
             return Plan(self.name, True, problem.target_x, message="already past the goal",
                         sequences=[FootstepSequence(np.zeros(0), np.zeros(0), np.zeros((0, 3)))])
@@ -197,7 +203,7 @@ class Planner(ABC):
             plan.timing = problem.timing.record()
         return plan
 
-    def problem(self, apex, terrain, goal_x, params, t0: float) -> Problem:
+    def problem(self, apex, terrain, goal_x, params, t0: float, before=None) -> Problem:
         params = SlipParams() if params is None else params
         apex = check_apex(apex, terrain, params)
         rim = terrain.far_rim(apex.x)
@@ -215,7 +221,8 @@ class Planner(ABC):
         # a map extends flat past its last cell; a perception window ends where the robot's knowledge does
         window_end = min(apex.x + horizon, terrain.known_end)
         target_x = min(goal_x, window_end - margin)
-        return Problem(apex, terrain, goal_x, params, units, window_end, target_x, t0 + self.budget.max_time_s)
+        return Problem(apex, terrain, goal_x, params, units, window_end, target_x, t0 + self.budget.max_time_s,
+                       before=hop_before(before, terrain))
 
     @abstractmethod
     def _plan(self, problem: Problem) -> Plan:
@@ -231,3 +238,13 @@ class Planner(ABC):
             if isinstance(value, (str, Path)) and Path(value).is_file():
                 files[name] = str(value)
         return files
+
+
+def hop_before(before, terrain: Terrain) -> np.ndarray:
+    """``Problem.before`` for the hop ``before`` ((x, z, xdot, foothold x), None: not known) on ``terrain``."""
+    if before is None:
+        return np.zeros(4)
+    if len(before) != 4:
+        raise ValueError(f"before must be (x, z, xdot, foothold x) of the hop that reached the apex, got {before!r}")
+    x, z, xdot, foothold = (check_number(v, f"before[{i}]", bound=POSITION) for i, v in enumerate(before))
+    return np.array([z - float(terrain.height_at(foothold)), xdot, foothold - x, 1.0])

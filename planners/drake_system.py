@@ -110,6 +110,15 @@ class FootstepPlannerSystem(LeafSystem):
         context.SetAbstractState(self._log, log)
         return command
 
+    def hop_before(self, records) -> tuple | None:
+        """The hop that reached this apex, as the last planning call saw it start, (x, z, xdot, foothold x): the
+        first foothold it had the robot fly, when the robot plans at every apex (None: not known)."""
+        if not records or self.replan_every != 1:
+            return None
+        last = records[-1]
+        flown = () if last.get("in_place") else flown_footholds(last)
+        return (*last.get("seen_apex", last["apex"]), flown[0]) if flown else None
+
     def _output(self, context, output):
         output.set_value(self.command(context))
 
@@ -138,7 +147,7 @@ class FootstepPlannerSystem(LeafSystem):
         noise, params = self.replanner.noise, self.replanner.params
         rng = copy.deepcopy(log.rng)
         error = None if noise.silent else noise.apex_errors(rng, 1)[0]
-        call = self.replanner.plan(apex, error, rng)
+        call = self.replanner.plan(apex, error, rng, self.hop_before(log.records))
         record, seen = call.record, call.seen
         record["stamp"] = stamp
         success = record["success"]
@@ -153,6 +162,8 @@ class FootstepPlannerSystem(LeafSystem):
         energy = self.pump.energy(seen, params.gravity) if pump else None
         if pump:
             record["pumped"] = self.pump.rise
+        if in_place:
+            record["in_place"] = True
         errors_told = (tuple(float(e) for e in (np.zeros(3) if error is None else error)),)
         command = FootholdCommand(tuple(flown), call.sensed, energy, stamp,
                                   seen.xdot if pump else 0.0, errors_told)

@@ -138,15 +138,15 @@ class Replanner:
         # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
         return self.goal_x + GOAL_SIGMAS * self.noise.apex[0]
 
-    def plan(self, apex: ApexState, apex_error, rng: np.random.Generator) -> PlanningCall:
+    def plan(self, apex: ApexState, apex_error, rng: np.random.Generator, before=None) -> PlanningCall:
         """Plan from the true ``apex`` told with ``apex_error`` ((x, z, xdot), None: told as it is), the map's
-        errors drawn from ``rng`` (none without noise)."""
+        errors drawn from ``rng`` (none without noise), reached by the hop ``before`` (``Planner.plan``)."""
         seen = apex if apex_error is None else ApexState(*(np.asarray(apex) + apex_error))
         window = self.terrain.perceived(seen.x, *units_of(self.params).window)   # the hopper's view
         sensed = window if self.noise.silent else self.noise.perceived(window, rng, self.map_filter)
         try:
             plan = self.planner.plan(seen, sensed.without_footholds_before_rises(self.face_keep_out), self.aim_x,
-                                     self.params)
+                                     self.params, before)
             record = plan.summary()
         except ValueError as refusal:  # a noisy apex the planner cannot start from (below the ground it sees)
             if self.raise_refusals:

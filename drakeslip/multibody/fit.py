@@ -31,12 +31,14 @@ SPEED_CHANGE_EDGES = (-1.0, 0.0, 1.0)
 @dataclass(frozen=True)
 class Hop:
     """One robot hop: from ``apex`` (x, z, xdot) it touched down at ``foothold`` (ground ``height``) and reached
-    ``next_apex``."""
+    ``next_apex``; ``previous``, the robot's hop before it (None at the start of a run), whose effects the robot
+    carries into this one (``drakeslip.multibody.correction``)."""
 
     apex: tuple
     foothold: float
     height: float
     next_apex: tuple
+    previous: "Hop | None" = None
 
 
 def hops_from_log(log, start: ApexState, terrain: Terrain) -> list[Hop]:

@@ -8,10 +8,11 @@ from collections import namedtuple
 
 import numpy as np
 
+from drakeslip.apex_correction import template_step
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
-from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
+from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
 from planners.core.ground import clear_of_edges_at
@@ -25,8 +26,10 @@ GridSettings = namedtuple("GridSettings", ["spacing", "pad", "until", "edge_marg
 # The reach angles' sines and cosines (``reach_bounds``)
 Reach = namedtuple("Reach", ["sin", "cos"])
 # Step-space's expansion: the grid, the map (``drakeslip.terrain.Ground``), the hopper (``SlipParams.as_array``),
-# the controller (``ControllerArrays``), the reach angles and the node cost's ``Scoring``
-GridExpansion = namedtuple("GridExpansion", ["grid", "ground", "params", "controller", "reach", "scoring"])
+# the controller (``ControllerArrays``), the reach angles, the node cost's ``Scoring``, and the hop that reached the
+# root as a learned correction takes it (``planners.base.Problem.before``)
+GridExpansion = namedtuple("GridExpansion", ["grid", "ground", "params", "controller", "reach", "scoring",
+                                             "root_before"])
 NO_STATE = 0   # the state of an expansion that keeps none
 
 
@@ -100,10 +103,25 @@ def aim_candidates(x, z, v, x_l, ground, controller, edge_margin, max_angle):
 
 
 @compiled(inline="always")
-def fly(x, z, v, theta, x_l, e, out):
-    """One step-map call of the expansion ``e`` (its hopper, ground and grid); whether the hop succeeds, lands
-    within the grid's tolerance of ``x_l`` and keeps its minimum speed (the next apex is left in ``out``)."""
-    step_one(x, z, v, theta, e.params, e.ground, np.int64(STANCE_STEPS), out)
+def hop_before(tree, node, ground, root_before):
+    """The hop that reached ``node`` as ``drakeslip.apex_correction`` takes it (``before``): ``root_before`` at
+    the root."""
+    parent = tree.parent[node]
+    if parent < 0:
+        return root_before
+    foothold = tree.foothold[node]
+    before = np.empty(4)
+    before[0] = tree.apex[parent, 1] - height_at(ground.heights, ground.x0, ground.cell, foothold)
+    before[1], before[2], before[3] = tree.apex[parent, 2], foothold - tree.apex[parent, 0], 1.0
+    return before
+
+
+@compiled(inline="always")
+def fly(x, z, v, theta, x_l, e, out, before):
+    """One step-map call of the expansion ``e`` (its hopper, ground and grid) after the hop ``before``; whether the
+    hop succeeds, lands within the grid's tolerance of ``x_l`` and keeps its minimum speed (the next apex is left in
+    ``out``)."""
+    template_step(x, z, v, theta, e.params, e.ground, before, out)
     return out[OUT_CODE] == OK and abs(out[OUT_TD_X] - x_l) < e.grid.tolerance and out[OUT_XDOT] >= e.grid.min_speed
 
 
@@ -168,10 +186,11 @@ def expand_grid(expansion, state, tree, size, node, slots):
     ok = np.zeros(n, np.bool_)
     apexes = np.zeros((n, 3))
     out = np.empty(N_OUT)
+    before = hop_before(tree, node, e.ground, e.root_before)
     calls = 0
     for i in range(n):
         if theta[i] == theta[i]:
-            ok[i] = fly(x, z, v, theta[i], x_l[i], e, out)
+            ok[i] = fly(x, z, v, theta[i], x_l[i], e, out, before)
             apexes[i, 0], apexes[i, 1], apexes[i, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
             calls += 1
     t2 = now()

@@ -7,9 +7,10 @@ from collections import namedtuple
 
 import numpy as np
 
+from drakeslip.apex_correction import template_step
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
-from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
+from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 from drakeslip.terrain import Ground
 
 from planners.core.ground import clear_of_edges_at, same_level
@@ -26,11 +27,22 @@ def world_ground(worlds, w):
     return Ground(worlds.heights[w], worlds.x0[w], worlds.cell, worlds.ditch_height, 0.0)
 
 
+@compiled(inline="always")
+def hop_of(state, touchdown, ground):
+    """The hop from apex ``state`` that touched down at ``touchdown`` on ``ground``, as
+    ``drakeslip.apex_correction`` takes the hop before another (``before``)."""
+    before = np.empty(4)
+    before[0] = state[1] - height_at(ground.heights, ground.x0, ground.cell, touchdown)
+    before[1], before[2], before[3] = state[2], touchdown - state[0], 1.0
+    return before
+
+
 @compiled()
-def fly_particles(check, states, angles, foothold, seen, fan):
+def fly_particles(check, states, befores, angles, foothold, seen, fan):
     """The flights of a robust check (``planners.core.robust.RobustCheck``): particle i hops from ``states[i]``
-    with ``angles[i]`` in its world and must complete the hop, touch down within ``check.landing`` of ``foothold``
-    on its level of the map the planner sees (``seen``, a ``Ground`` of the worlds' cell), clear of its edges by
+    (after the hop ``befores[i]``, for a hopper with a learned correction) with ``angles[i]`` in its world and must
+    complete the hop, touch down within ``check.landing`` of ``foothold`` on its level of the map the planner sees
+    (``seen``, a ``Ground`` of the worlds' cell), clear of its edges by
     ``check.edge_margin``, and reach its next apex with ``check.min_speed``, ``check.clearance`` above the ground
     under it. Then, for a non-empty ``fan``, each particle must find ``check.lookahead`` leg angles of the fan that
     start a way on of ``check.lookahead_depth`` working hops (``ways_on``). Stops at the first particle that fails
@@ -40,14 +52,16 @@ def fly_particles(check, states, angles, foothold, seen, fan):
     cell = worlds.cell
     n = states.shape[0]
     ends = np.empty((n, 3))
+    touchdowns = np.empty(n)
     out = np.empty(N_OUT)
     hops = 0
     for i in range(n):
         w = check.world[i]
-        step_one(states[i, 0], states[i, 1], states[i, 2], angles[i], worlds.params[w], world_ground(worlds, w),
-                 np.int64(STANCE_STEPS), out)
+        template_step(states[i, 0], states[i, 1], states[i, 2], angles[i], worlds.params[w], world_ground(worlds, w),
+                      befores[i], out)
         hops += 1
         x, z, xdot, touchdown = out[OUT_X], out[OUT_Z], out[OUT_XDOT], out[OUT_TD_X]
+        touchdowns[i] = touchdown
         ends[i, 0], ends[i, 1], ends[i, 2] = x, z, xdot
         shift = check.shift[i]
         landed = touchdown - shift  # where it landed on the map the planner sees
@@ -57,7 +71,8 @@ def fly_particles(check, states, angles, foothold, seen, fan):
                 and clear_of_edges_at(seen.heights, seen.x0, cell, landed, check.edge_margin)):
             return False, ends, hops
     for i in range(n if fan.size else 0):
-        found, flown = ways_on(ends[i], fan, check.lookahead, check.lookahead_depth, check, i, seen, out)
+        before = hop_of(states[i], touchdowns[i], world_ground(worlds, check.world[i]))
+        found, flown = ways_on(ends[i], before, fan, check.lookahead, check.lookahead_depth, check, i, seen, out)
         hops += flown
         if found < check.lookahead:
             return False, ends, hops
@@ -65,8 +80,9 @@ def fly_particles(check, states, angles, foothold, seen, fan):
 
 
 @compiled(inline="always")
-def ways_on(apex, fan, wanted, depth, check, i, seen, out):
-    """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex``, hops flown) for particle
+def ways_on(apex, before, fan, wanted, depth, check, i, seen, out):
+    """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex`` after the hop ``before``,
+    hops flown) for particle
     ``i`` of ``check``, in its world, whose map (``seen``) is its shift off: a way on is ``depth`` working hops in a
     row (each completes, lands clear of the map's edges by ``check.edge_margin`` and keeps ``check.min_speed``),
     each hop's leg angle taken from ``fan`` in its order; depth first, so the first way on from an angle ends that
@@ -74,6 +90,8 @@ def ways_on(apex, fan, wanted, depth, check, i, seen, out):
     worlds, w, shift = check.worlds, check.world[i], check.shift[i]
     p, ground, cell = worlds.params[w], world_ground(worlds, w), worlds.cell
     state = np.empty((depth, 3))
+    befores = np.empty((depth, 4))   # the hop before each hop of the way
+    befores[0] = before
     angle = np.zeros(depth, np.int64)  # at each hop of the way being tried, the index of its fan angle
     state[0, 0], state[0, 1], state[0, 2] = apex[0], apex[1], apex[2]
     found = hops = level = 0
@@ -84,8 +102,8 @@ def ways_on(apex, fan, wanted, depth, check, i, seen, out):
             level -= 1
             angle[level] += 1
             continue
-        step_one(state[level, 0], state[level, 1], state[level, 2], fan[angle[level]], p, ground,
-                 np.int64(STANCE_STEPS), out)
+        template_step(state[level, 0], state[level, 1], state[level, 2], fan[angle[level]], p, ground,
+                      befores[level], out)
         hops += 1
         if not (out[OUT_CODE] == OK and out[OUT_XDOT] >= check.min_speed
                 and clear_of_edges_at(seen.heights, seen.x0, cell, out[OUT_TD_X] - shift, check.edge_margin)):
@@ -95,6 +113,7 @@ def ways_on(apex, fan, wanted, depth, check, i, seen, out):
             level = 0
             angle[0] += 1
         else:
+            befores[level + 1] = hop_of(state[level], out[OUT_TD_X], ground)
             level += 1
             state[level, 0], state[level, 1], state[level, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
             angle[level] = 0

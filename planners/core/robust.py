@@ -15,7 +15,7 @@ from drakeslip.fast_controller import aim_rows
 
 from planners.core.best_first import ADMITTED, REFUTED
 from planners.core.clock import CONTROLLER, STEP_MAP, now
-from planners.core.particles import NO_FAN, Worlds, fly_particles
+from planners.core.particles import NO_FAN, Worlds, fly_particles, hop_of
 from planners.core.tree import CAPACITY, copy_head, grown
 
 # The particles' errors and worlds, and what a robust hop asks of them: how many of a sequence's first hops they
@@ -27,8 +27,9 @@ RobustCheck = namedtuple("RobustCheck", ["depth", "lookahead", "lookahead_depth"
                                          "angle_errors", "world", "shift", "worlds", "clearance", "landing",
                                          "edge_margin", "min_speed"])
 # A search's robust admission: the check, the map the planner sees (``drakeslip.terrain.Ground``), the controller
-# (``ControllerArrays``), and where the root's particles are (P, 3)
-class RobustAdmission(namedtuple("RobustAdmission", ["check", "ground", "controller", "root_states"])):
+# (``ControllerArrays``), where the root's particles are (P, 3), and the hop that reached the root as a learned
+# correction takes it (``planners.base.Problem.before``)
+class RobustAdmission(namedtuple("RobustAdmission", ["check", "ground", "controller", "root_states", "root_before"])):
     __slots__ = ()
 
     def start(self, expansion_state, root):
@@ -45,14 +46,14 @@ class RobustAdmission(namedtuple("RobustAdmission", ["check", "ground", "control
 Flights = namedtuple("Flights", ["row_of", "rows", "states"])
 
 
-def no_check(ground, controller) -> RobustAdmission:
+def no_check(ground, controller, root_before) -> RobustAdmission:
     """The nominal search's admission (depth 0: every node admitted), of the types a robust one has (the worlds'
     heights read-only, as a Terrain's), so one compiled search serves both."""
     heights = np.zeros((0, 1))
     heights.setflags(write=False)
     check = RobustCheck(0, 0, 1, NO_FAN, np.zeros((0, 3)), np.zeros(0), np.zeros(0, np.int64), np.zeros(0),
                         Worlds(np.zeros((0, 6)), heights, np.zeros(0), 0.0, 0.0), 0.0, 0.0, 0.0, 0.0)
-    return RobustAdmission(check, ground, controller, np.zeros((0, 3)))
+    return RobustAdmission(check, ground, controller, np.zeros((0, 3)), root_before)
 
 
 @compiled(inline="always")
@@ -89,13 +90,20 @@ def robust_admit(admission, state, tree, node, slots):
     depth = tree.depth[node]
     if check.depth == 0 or depth > check.depth or (node < row_of.shape[0] and row_of[node] >= 0):
         return ADMITTED, 0, flights
-    here = states[row_of[tree.parent[node]]]
+    parent = tree.parent[node]
+    here = states[row_of[parent]]
     foothold = tree.foothold[node]
+    befores = np.empty((here.shape[0], 4))   # the hops that brought the particles to the parent
+    for i in range(here.shape[0]):
+        if tree.parent[parent] < 0:
+            befores[i] = admission.root_before
+        else:
+            befores[i] = hop_of(states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
     t0 = now()
     angles = aim_particles(check, here, foothold, admission.ground, admission.controller)
     t1 = now()
     fan = check.fan if depth == check.depth else NO_FAN
-    passed, ends, hops = fly_particles(check, here, angles, foothold, admission.ground, fan)
+    passed, ends, hops = fly_particles(check, here, befores, angles, foothold, admission.ground, fan)
     slots[CONTROLLER] += t1 - t0
     slots[STEP_MAP] += now() - t1
     if not passed:

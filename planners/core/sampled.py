@@ -16,7 +16,7 @@ from drakeslip.compiled import compiled
 from drakeslip.fast_step import N_OUT, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, MODEL, STEP_MAP, now
-from planners.core.grid import aim_candidates, children_of, fly, grid_candidates
+from planners.core.grid import aim_candidates, children_of, fly, grid_candidates, hop_before
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.tree import Children, copy_head, grown
 
@@ -36,7 +36,7 @@ SampledState = namedtuple("SampledState", ["slot_of", "start", "count", "n_order
 # (``ModelArrays``), the draws' generator, how many candidates are flown at a time (``width``); its state in a search
 # is the draws (``SampledState``)
 SampledExpansion = namedtuple("SampledExpansion", ["grid", "ground", "params", "controller", "reach", "scoring",
-                                                   "window", "model", "rng", "width"])
+                                                   "root_before", "window", "model", "rng", "width"])
 KEY_STRIDE = 1 << 20  # a (window start, bin under the body) pair's key: start * KEY_STRIDE + bin
 FLOAT_ROW = types.float64[::1]
 
@@ -205,6 +205,7 @@ def expand_sampled(e, state, tree, size, node, slots):
     order = state.cand_order[first:first + state.n_order[slot]]
     ok, apexes, tried = np.zeros(n, np.bool_), np.zeros((n, 3)), np.empty(n, np.int64)
     out = np.empty(N_OUT)
+    before = hop_before(tree, node, e.ground, e.root_before)
     n_tried = calls = 0
     while state.pos[slot] < order.shape[0] or state.n_ready[slot] > 0:
         aim_next(e, state, slot, (x, z, v), x_l, theta, order, slots)
@@ -215,7 +216,7 @@ def expand_sampled(e, state, tree, size, node, slots):
             i = state.ready[slot, b]
             tried[n_tried] = i
             n_tried += 1
-            ok[i] = fly(x, z, v, theta[i], x_l[i], e, out)
+            ok[i] = fly(x, z, v, theta[i], x_l[i], e, out, before)
             apexes[i, 0], apexes[i, 1], apexes[i, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
             hit = hit or ok[i]
         slots[STEP_MAP] += now() - t0

@@ -50,6 +50,7 @@ def check_plan_record(plan, where: str) -> None:
     for name in ("executed", "leg_angles"):
         optional(plan, name, "a list of numbers", is_numbers, where)
     optional(plan, "pumped", "a number", is_number, where)
+    optional(plan, "in_place", "true or false", is_flag, where)
 
 
 def field(record: dict, name: str, kind: str, test, where: str = "") -> None:

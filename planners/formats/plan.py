@@ -30,7 +30,7 @@ from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.hopper_file import NamedHopper, check_same_hopper, hopper_for, hopper_from_record
 from drakeslip.jobs.files import atomic_write, read_json
 from drakeslip.bounds import CELL, POSITION, TERRAIN_START
-from drakeslip.params import check_number
+from drakeslip.params import check_number, params_from_record
 from drakeslip.state import APEX_BOUNDS, as_apex, check_start
 from drakeslip.terrain import DITCH_HEIGHT, family
 
@@ -146,7 +146,7 @@ class PlanRecord:
         if not isinstance(p, dict):
             raise ValueError(f"{source}: params must be an object, got {type(p).__name__}")
         try:
-            params = SlipParams(**p)
+            params = params_from_record(p)
         except (TypeError, ValueError) as exc:
             raise ValueError(f"{source}: params: {exc}") from exc
         footholds = [check_number(v, f"{source}: footholds[{i}]", bound=POSITION)

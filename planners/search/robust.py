@@ -167,7 +167,9 @@ class Robustness:
         admission's own flights (``planners.core.robust``); the next apexes mean something only when robust."""
         check, ground = self.check(particles), terrain.ground()
         angles = aim_particles(check, particles.states, float(foothold), ground, controller.arrays())
-        return fly_particles(check, particles.states, angles, float(foothold), ground, check.fan if last else NO_FAN)
+        befores = np.zeros((len(particles.states), 4))   # the hops before theirs are not known here
+        return fly_particles(check, particles.states, befores, angles, float(foothold), ground,
+                             check.fan if last else NO_FAN)
 
     def check(self, particles: "Particles") -> RobustCheck:
         """``particles`` and what this robustness asks of them, as the robust admission reads them."""
@@ -177,11 +179,12 @@ class Robustness:
                            float(particles.clearance), float(particles.landing), float(particles.edge_margin),
                            float(particles.min_speed))
 
-    def admission(self, apex, terrain: Terrain, params: SlipParams, controller) -> RobustAdmission:
+    def admission(self, apex, terrain: Terrain, params: SlipParams, controller, before) -> RobustAdmission:
         """The robust admission of a search from ``apex`` on ``terrain`` for the hopper ``params``, its particles
-        aiming with ``controller`` (``ControllerArrays``)."""
+        aiming with ``controller`` (``ControllerArrays``), reached by the hop ``before``
+        (``planners.base.Problem.before``)."""
         particles = self.particles(apex, terrain, params)
-        return RobustAdmission(self.check(particles), terrain.ground(), controller, particles.states)
+        return RobustAdmission(self.check(particles), terrain.ground(), controller, particles.states, before)
 
 
 @dataclass

@@ -140,7 +140,7 @@ class StepSpacePlanner(Planner):
         """The compiled grid expansion of ``problem`` on the grid of ``spacing``."""
         return GridExpansion(self.grid_settings(problem, spacing, until), problem.terrain.ground(),
                              problem.params.as_array(), self.controller.for_params(problem.params).arrays(),
-                             reach_angles(problem.params), self.cost_weights.scoring(problem))
+                             reach_angles(problem.params), self.cost_weights.scoring(problem), problem.before)
 
     def candidates(self, apex, terrain, params, spacing: float | None, until: float | None = None) -> np.ndarray:
         """Desired footholds within reach of ``apex``, on the grid x0 + (i + 1/2) * spacing (None: the planner's
@@ -240,8 +240,8 @@ class StepSpacePlanner(Planner):
         that sequence alone."""
         controller = self.controller.for_params(problem.params).arrays()
         if robust is None:
-            return no_check(problem.terrain.ground(), controller)
-        return robust.admission(problem.apex, problem.terrain, problem.params, controller)
+            return no_check(problem.terrain.ground(), controller, problem.before)
+        return robust.admission(problem.apex, problem.terrain, problem.params, controller, problem.before)
 
     def last_resort(self, units: HopperUnits) -> "StepSpacePlanner | None":
         """This planner without robustness, its edge margin ``last_resort_margin`` of its own, for a hopper of

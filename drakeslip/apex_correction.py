@@ -1,0 +1,216 @@
+"""The learned correction of a template's apex-to-apex map toward the robot it stands for (``ApexCorrection``).
+
+The template fitted to the multibody robot (``drakeslip.multibody.fit``) predicts the robot's next apex from its apex and foothold alone.
+The robot carries its last hop into the next one (its body's pitch and the leg's swing are not in the apex state),
+so its next apex depends on that hop too: with the hop alone a network predicts the robot no better than the
+template; with the hop before it as well, it halves the template's error. The correction is a small network that adds
+to the template's next apex what the robot does differently, from
+
+  the hop: its apex height above the foothold, its speed and the foothold's distance ahead of the body;
+  the hop before it: the same three, and whether there was one (0 at the start of a run: the three are then the
+  hop's own),
+
+in the template's leg lengths and speed unit sqrt(g L0), to the robot's next apex minus the template's (x, z, xdot)
+in the same units. Inputs are held inside the range it was trained on, so a hop unlike any the robot flew gets the
+correction of the nearest ones it did, not an extrapolation. Two tanh layers; trained by
+``drakeslip/multibody/correction_training.py`` (``examples/fit_correction.py``), with some hops shown without the hop
+before them, so that it also predicts a hop whose previous hop is not known (a plan's first).
+
+A correction is a weights file (``.npz``: ``ARRAYS``, matrices stored (inputs, outputs), and "held_out": the errors
+it still makes on held-out hops, ``HELD_OUT_FIELDS``) read by ``load_correction`` against its SHA-256. A template that
+carries one is a ``drakeslip.params.RobotTemplate``, whose parameter array carries the network packed after the
+parameters (``ApexCorrection.packed``); ``corrected_apex`` is its forward pass in compiled code, which the planners'
+compiled searches and robust checks add to each hop of the step map (planners/core/grid.py, particles.py). A hop's
+previous hop reaches it as ``before``: (apex height above its foothold, speed, foothold ahead, 1), or zeros
+where it is not known.
+"""
+from __future__ import annotations
+
+import functools
+import hashlib
+import io
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from drakeslip.compiled import compiled
+from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
+from drakeslip.fast_step import OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
+
+N_PARAMS = 6            # a SlipParams array's own length: a correction is packed after it
+N_IN, N_OUT = 7, 3
+ARRAYS = ("w1", "b1", "w2", "b2", "w3", "b3", "input_low", "input_high", "input_mean", "input_scale",
+          "output_scale")
+HELD_OUT_FIELDS = ("median_x", "p90_x", "median_z", "p90_z", "median_xdot", "p90_xdot")
+
+
+def hop_inputs(hops, leg_length: float, gravity: float) -> np.ndarray:
+    """(n, N_IN) the correction's inputs, before scaling, for ``hops`` (``fit.Hop``, each with its ``previous``)."""
+    def geometry(hop):
+        return hop.apex[1] - hop.height, hop.apex[2], hop.foothold - hop.apex[0]
+
+    rows = []
+    for hop in hops:
+        own = geometry(hop)
+        rows.append((*own, *(own if hop.previous is None else geometry(hop.previous)), float(hop.previous is not None)))
+    units = np.array([leg_length, math.sqrt(gravity * leg_length), leg_length] * 2 + [1.0])
+    return np.array(rows, dtype=np.float64).reshape(-1, N_IN) / units
+
+
+def output_units(leg_length: float, gravity: float) -> np.ndarray:
+    """The outputs' units: (x, z, xdot) of the next apex in metres and m/s per network unit."""
+    return np.array([leg_length, leg_length, math.sqrt(gravity * leg_length)])
+
+
+def correction_of(arrays: dict, inputs: np.ndarray) -> np.ndarray:
+    """(n, N_OUT) the correction in output units of the network ``arrays`` (``ARRAYS``) for (n, N_IN) ``inputs``
+    (``hop_inputs``)."""
+    a = arrays
+    u = (np.clip(inputs, a["input_low"], a["input_high"]) - a["input_mean"]) / a["input_scale"]
+    h = np.tanh(np.tanh(u @ a["w1"] + a["b1"]) @ a["w2"] + a["b2"])
+    return (h @ a["w3"] + a["b3"]) * a["output_scale"]
+
+
+@dataclass(frozen=True)
+class ApexCorrection:
+    """The correction in the weights file ``path``, whose bytes have the SHA-256 ``sha256`` (checked when it is
+    read, here). Two corrections are the same when their files are; a record of one (``dataclasses.asdict`` of a
+    ``RobotTemplate``) is the digest and the path. ``arrays``: the network's (``ARRAYS`` and "held_out")."""
+
+    sha256: str
+    path: str = field(compare=False)
+
+    def __post_init__(self):
+        object.__setattr__(self, "arrays", read_arrays(str(self.path), self.sha256))
+
+    def __call__(self, inputs: np.ndarray) -> np.ndarray:
+        """``correction_of`` this correction's network."""
+        return correction_of(self.arrays, inputs)
+
+    def packed(self) -> np.ndarray:
+        """The network as ``corrected_apex`` reads it after a hopper's parameters: the hidden units, then every array
+        of ``ARRAYS`` flattened in order."""
+        a = self.arrays
+        return np.concatenate([[float(a["b1"].shape[0])], *(np.ravel(a[name]) for name in ARRAYS)])
+
+    def held_out(self) -> dict:
+        """The errors it makes on the hops it was tested on (``HELD_OUT_FIELDS``: [m] and [m/s])."""
+        return dict(zip(HELD_OUT_FIELDS, map(float, self.arrays["held_out"])))
+
+
+def save_correction(path, arrays: dict) -> str:
+    """Write a correction's network ``arrays`` (``ARRAYS`` and "held_out") to ``path`` (.npz) atomically; returns
+    the file's SHA-256."""
+    from drakeslip.jobs.files import atomic_write
+
+    buffer = io.BytesIO()
+    np.savez(buffer, **{name: np.asarray(value, dtype=np.float64) for name, value in arrays.items()})
+    data = buffer.getvalue()
+    with atomic_write(path) as f:
+        f.write(data)
+    return hashlib.sha256(data).hexdigest()
+
+
+def load_correction(path) -> ApexCorrection:
+    """The correction in the weights file ``path`` (its digest taken from its bytes)."""
+    try:
+        digest = hashlib.sha256(Path(path).read_bytes()).hexdigest()
+    except OSError as error:
+        raise ValueError(f"correction weights {path}: {error.strerror or error}") from None
+    return ApexCorrection(digest, str(path))
+
+
+@functools.lru_cache(maxsize=8)
+def read_arrays(path: str, sha256: str) -> dict:
+    """The network in the weights file ``path``, its bytes checked against ``sha256``; a missing, altered or
+    malformed file raises ValueError naming it."""
+    try:
+        data = Path(path).read_bytes()
+    except OSError as error:
+        raise ValueError(f"correction weights {path}: {error.strerror or error}") from None
+    digest = hashlib.sha256(data).hexdigest()
+    if digest != sha256:
+        raise ValueError(f"correction weights {path} are not the file named (sha256 {str(sha256)[:12]}..., the "
+                         f"file's {digest[:12]}...): regenerate them with examples/fit_correction.py")
+    try:
+        with np.load(io.BytesIO(data)) as npz:
+            arrays = {name: np.asarray(npz[name], dtype=np.float64) for name in (*ARRAYS, "held_out")}
+    except (KeyError, ValueError, OSError) as error:
+        raise ValueError(f"correction weights {path}: {error}") from None
+    hidden = arrays["b1"].shape[0] if arrays["b1"].ndim == 1 else -1
+    shapes = {"w1": (N_IN, hidden), "w2": (hidden, hidden), "b2": (hidden,), "w3": (hidden, N_OUT), "b3": (N_OUT,),
+              **{name: (N_IN,) for name in ("input_low", "input_high", "input_mean", "input_scale")},
+              "output_scale": (N_OUT,), "held_out": (len(HELD_OUT_FIELDS),)}
+    for name, shape in shapes.items():
+        if arrays[name].shape != shape or not np.all(np.isfinite(arrays[name])):
+            raise ValueError(f"correction weights {path}: {name} must be finite of shape {shape}, "
+                             f"got {arrays[name].shape}")
+    for array in arrays.values():
+        array.setflags(write=False)
+    return arrays
+
+
+@compiled(inline="always")
+def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out, x_col, z_col, xdot_col):
+    """Add the correction packed in ``p`` after its N_PARAMS parameters to the next apex in ``out`` (columns
+    ``x_col``, ``z_col``, ``xdot_col``) of the hop from apex (ax, az, axdot) that touched down at (foot_x, foot_z),
+    after the hop ``before`` (see the module doc): ``ApexCorrection.__call__`` in compiled code."""
+    leg, g = p[I_LEG_LENGTH], p[I_GRAVITY]
+    speed_unit = math.sqrt(g * leg)
+    hidden = int(p[N_PARAMS])
+    k = N_PARAMS + 1
+    w1 = p[k:k + N_IN * hidden]
+    k += N_IN * hidden
+    b1 = p[k:k + hidden]
+    k += hidden
+    w2 = p[k:k + hidden * hidden]
+    k += hidden * hidden
+    b2 = p[k:k + hidden]
+    k += hidden
+    w3 = p[k:k + hidden * N_OUT]
+    k += hidden * N_OUT
+    b3 = p[k:k + N_OUT]
+    k += N_OUT
+    low, high, mean, scale = p[k:k + N_IN], p[k + N_IN:k + 2 * N_IN], p[k + 2 * N_IN:k + 3 * N_IN], p[
+        k + 3 * N_IN:k + 4 * N_IN]
+    out_scale = p[k + 4 * N_IN:k + 4 * N_IN + N_OUT]
+    raw = np.empty(N_IN)
+    raw[0], raw[1], raw[2] = (az - foot_z) / leg, axdot / speed_unit, (foot_x - ax) / leg
+    if before[3] > 0.0:
+        raw[3], raw[4], raw[5], raw[6] = before[0] / leg, before[1] / speed_unit, before[2] / leg, 1.0
+    else:
+        raw[3], raw[4], raw[5], raw[6] = raw[0], raw[1], raw[2], 0.0
+    u = np.empty(N_IN)
+    for i in range(N_IN):
+        u[i] = (min(max(raw[i], low[i]), high[i]) - mean[i]) / scale[i]
+    h1 = np.empty(hidden)
+    for j in range(hidden):
+        acc = b1[j]
+        for i in range(N_IN):
+            acc += u[i] * w1[i * hidden + j]
+        h1[j] = math.tanh(acc)
+    h2 = np.empty(hidden)
+    for j in range(hidden):
+        acc = b2[j]
+        for i in range(hidden):
+            acc += h1[i] * w2[i * hidden + j]
+        h2[j] = math.tanh(acc)
+    for o in range(N_OUT):
+        acc = b3[o]
+        for i in range(hidden):
+            acc += h2[i] * w3[i * N_OUT + o]
+        unit = speed_unit if o == 2 else leg
+        col = x_col if o == 0 else (z_col if o == 1 else xdot_col)
+        out[col] += acc * out_scale[o] * unit
+
+
+@compiled(inline="always")
+def template_step(ax, az, axdot, leg_angle, p, ground, before, out):
+    """One hop of the hopper ``p`` over ``ground`` as ``drakeslip.fast_step.step_one`` writes it into ``out``, its
+    next apex corrected where ``p`` carries a correction (a ``RobotTemplate``'s, after the hop ``before``)."""
+    step_one(ax, az, axdot, leg_angle, p, ground, np.int64(STANCE_STEPS), out)
+    if out[OUT_CODE] == OK and p.shape[0] > N_PARAMS:
+        foot_z = height_at(ground.heights, ground.x0, ground.cell, out[OUT_TD_X])
+        corrected_apex(p, before, ax, az, axdot, out[OUT_TD_X], foot_z, out, OUT_X, OUT_Z, OUT_XDOT)
