@@ -1,10 +1,10 @@
 """The learned correction of a template's apex-to-apex map toward the robot it stands for (``ApexCorrection``).
 
-The template fitted to the multibody robot (``drakeslip.multibody.fit``) predicts the robot's next apex from its apex and foothold alone.
-The robot carries its last hop into the next one (its body's pitch and the leg's swing are not in the apex state),
-so its next apex depends on that hop too: with the hop alone a network predicts the robot no better than the
-template; with the hop before it as well, it halves the template's error. The correction is a small network that adds
-to the template's next apex what the robot does differently, from
+The template fitted to the multibody robot (``drakeslip.multibody.fit``) predicts the robot's next apex from its
+apex and foothold alone. The robot carries its last hop into the next one (its body's pitch and its leg's swing are
+not in the apex state), so its next apex depends on that hop too: from the hop alone a network predicts the robot no
+better than the template; with the hop before it as well, it halves the template's error (docs/multibody.md). The
+correction is a small network that adds to the template's next apex what the robot does differently, from
 
   the hop: its apex height above the foothold, its speed and the foothold's distance ahead of the body;
   the hop before it: the same three, and whether there was one (0 at the start of a run: the three are then the
@@ -153,10 +153,10 @@ def read_arrays(path: str, sha256: str) -> dict:
 
 
 @compiled(inline="always")
-def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out, x_col, z_col, xdot_col):
-    """Add the correction packed in ``p`` after its N_PARAMS parameters to the next apex in ``out`` (columns
-    ``x_col``, ``z_col``, ``xdot_col``) of the hop from apex (ax, az, axdot) that touched down at (foot_x, foot_z),
-    after the hop ``before`` (see the module doc): ``ApexCorrection.__call__`` in compiled code."""
+def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out):
+    """Add the correction packed in ``p`` after its N_PARAMS parameters to the next apex in ``out`` (a
+    ``step_one`` output) of the hop from apex (ax, az, axdot) that touched down at (foot_x, foot_z), after the hop
+    ``before`` (see the module doc): ``ApexCorrection.__call__`` in compiled code."""
     leg, g = p[I_LEG_LENGTH], p[I_GRAVITY]
     speed_unit = math.sqrt(g * leg)
     hidden = int(p[N_PARAMS])
@@ -202,7 +202,7 @@ def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out, x_col, z_col, 
         for i in range(hidden):
             acc += h2[i] * w3[i * N_OUT + o]
         unit = speed_unit if o == 2 else leg
-        col = x_col if o == 0 else (z_col if o == 1 else xdot_col)
+        col = OUT_X if o == 0 else (OUT_Z if o == 1 else OUT_XDOT)
         out[col] += acc * out_scale[o] * unit
 
 
@@ -213,4 +213,4 @@ def template_step(ax, az, axdot, leg_angle, p, ground, before, out):
     step_one(ax, az, axdot, leg_angle, p, ground, np.int64(STANCE_STEPS), out)
     if out[OUT_CODE] == OK and p.shape[0] > N_PARAMS:
         foot_z = height_at(ground.heights, ground.x0, ground.cell, out[OUT_TD_X])
-        corrected_apex(p, before, ax, az, axdot, out[OUT_TD_X], foot_z, out, OUT_X, OUT_Z, OUT_XDOT)
+        corrected_apex(p, before, ax, az, axdot, out[OUT_TD_X], foot_z, out)

@@ -30,8 +30,7 @@ from drakeslip.devices import DEVICE_HELP
 OK, FAILED = 0, 1
 
 
-@cli_physics.reports_crashes
-def main(argv=None) -> int:
+def parser() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--families", type=cli.names, default="ditch,step,mixed", help="the suites' terrain families")
     ap.add_argument("--seed", type=cli.integer(0), default=41000, help="the drawn suites' seed")
@@ -47,39 +46,21 @@ def main(argv=None) -> int:
                     help="the recorded hops, kept as the cases run: a rerun of the same code and setup takes the "
                          "cases it holds from it")
     cli.add_parallel(ap, jobs=1)
-    args = ap.parse_args(argv)
+    return ap
 
-    from dataclasses import asdict, replace
-    from pathlib import Path
 
-    from drakeslip.apex_correction import load_correction, save_correction
-    from drakeslip.hopper_file import NamedHopper, load_hopper, save_hopper
-    from drakeslip.devices import torch_device
-    from drakeslip.jobs.files import atomic_write, read_json
-    from drakeslip.multibody.correction_training import CorrectionConfig, corrected_errors, train_correction
-    from drakeslip.multibody.fit import by_speed_change, errors, summary
-    from drakeslip.params import RobotTemplate
-    from planners.formats.suite_draw import draw_suite
+def recorded_hops(args, suites, template, kept: dict) -> dict:
+    """{case id: its hops' records} for the first --cases cases of each suite run on the robot planning for the
+    SLIP ``template``: those of ``kept`` (the --hops file's contents) where it was written by this code for this
+    template, the others run, --hops rewritten as they finish."""
+    from dataclasses import asdict
+
+    from drakeslip.jobs.files import atomic_write
     from verification.provenance import code_version
-    from verification.robot_hops import hop_from_record, hop_record, robot_hops
+    from verification.robot_hops import hop_record, robot_hops
 
-    try:
-        suites = [draw_suite(family, args.seed + 1000 * k) for k, family in enumerate(args.families)]
-        torch_device(args.device)
-    except ValueError as error:
-        ap.error(str(error))
-    cli.announce(argv)
-    try:
-        named = load_hopper(args.template)
-    except (OSError, ValueError) as error:
-        ap.error(str(error))
-    template = named.params.slip if isinstance(named.params, RobotTemplate) else named.params
     setup = {"code": code_version(), "template": asdict(template)}
-    try:
-        kept = read_json(args.hops, "hop file") if Path(args.hops).is_file() else {}
-    except ValueError as error:
-        ap.error(str(error))
-    records = kept.get("cases", {}) if kept.get("setup") == json.loads(json.dumps(setup)) else {}
+    records = dict(kept.get("cases", {})) if kept.get("setup") == json.loads(json.dumps(setup)) else {}
     tasks = [(case.id, ("step@robust", case, suite.goal_x, template.with_friction(suite.friction)))
              for suite in suites for case in suite.cases[:args.cases] if case.id not in records]
     print(f"{len(records)} cases from {args.hops}, {len(tasks)} to run", flush=True)
@@ -89,6 +70,53 @@ def main(argv=None) -> int:
             with atomic_write(args.hops, "w") as f:
                 json.dump({"setup": setup, "cases": records}, f)
             print(f"{n}/{len(tasks)} cases run", flush=True)
+    return records
+
+
+def print_errors(train, test, template, arrays) -> None:
+    """The held-out hops' errors of the template, the template with the correction, and that with the hop before
+    each unknown, overall and by speed change."""
+    from dataclasses import replace
+
+    from drakeslip.multibody.correction_training import corrected_errors
+    from drakeslip.multibody.fit import by_speed_change, errors, summary
+
+    first_hops = [replace(h, previous=None) for h in test]   # as a plan's first hop is predicted
+    report = {"hops": {"train": len(train), "held_out": len(test)}}
+    for name, err in (("template", errors(test, template)),
+                      ("template+correction", corrected_errors(test, template, arrays)),
+                      ("template+correction, hop before unknown", corrected_errors(first_hops, template, arrays))):
+        report[name] = {"held_out": summary(err), "by_speed_change": by_speed_change(test, err)}
+    print(json.dumps(report, indent=1))
+
+
+@cli_physics.reports_crashes
+def main(argv=None) -> int:
+    ap = parser()
+    args = ap.parse_args(argv)
+
+    from dataclasses import asdict
+    from pathlib import Path
+
+    from drakeslip.apex_correction import load_correction, save_correction
+    from drakeslip.devices import torch_device
+    from drakeslip.hopper_file import NamedHopper, load_hopper, save_hopper
+    from drakeslip.jobs.files import read_json
+    from drakeslip.multibody.correction_training import CorrectionConfig, train_correction
+    from drakeslip.params import RobotTemplate
+    from planners.formats.suite_draw import draw_suite
+    from verification.robot_hops import hop_from_record
+
+    try:
+        suites = [draw_suite(family, args.seed + 1000 * k) for k, family in enumerate(args.families)]
+        torch_device(args.device)
+        named = load_hopper(args.template)
+        kept = read_json(args.hops, "hop file") if Path(args.hops).is_file() else {}
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    cli.announce(argv)
+    template = named.params.slip if isinstance(named.params, RobotTemplate) else named.params
+    records = recorded_hops(args, suites, template, kept if isinstance(kept, dict) else {})
     train, test = [], []
     for suite in suites:
         for i, case in enumerate(suite.cases[:args.cases]):
@@ -101,13 +129,7 @@ def main(argv=None) -> int:
     except ValueError as error:
         print(error)
         return FAILED
-    first_hops = [replace(h, previous=None) for h in test]   # as a plan's first hop is predicted
-    report = {"hops": {"train": len(train), "held_out": len(test)}}
-    for name, err in (("template", errors(test, template)),
-                      ("template+correction", corrected_errors(test, template, arrays)),
-                      ("template+correction, hop before unknown", corrected_errors(first_hops, template, arrays))):
-        report[name] = {"held_out": summary(err), "by_speed_change": by_speed_change(test, err)}
-    print(json.dumps(report, indent=1))
+    print_errors(train, test, template, arrays)
     weights = Path(args.out).with_name(Path(args.template).stem + "_correction.npz")
     save_correction(weights, arrays)
     robot = RobotTemplate(**asdict(template), correction=load_correction(weights))

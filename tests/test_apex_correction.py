@@ -182,3 +182,20 @@ def test_planned_hops_leave_out_pumps_and_raibert_hops():
     assert hops[1].previous.foothold == 0.79 and hops[1].previous.apex == (0.5, 0.9, 1.5)   # the pumped one
     assert hops[1].apex == (1.0, 0.9, 1.5) and hops[1].next_apex == (1.5, 0.9, 1.5)
     assert [hop_from_record(json.loads(json.dumps(hop_record(h)))) for h in hops] == hops
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--families", "ditch,moon"], "unknown terrain family 'moon'"),
+    (["--device", "tpu"], "unknown torch device 'tpu'"),
+    (["--template", "no/such.json"], "no/such.json"),
+    (["--held-out", "1"], "--held-out"),
+])
+def test_fit_correction_refuses_bad_input_in_one_line(run_script, args, message):
+    code, stdout, err = run_script("fit_correction", *args)
+    assert code == 2 and message in err and len(err.splitlines()) == 1 and not stdout
+
+
+def test_evaluate_takes_a_template_for_the_robot_only(run_script):
+    code, stdout, err = run_script("evaluate", "--suite", "suites/ditch.json", "--out", "out/x.json",
+                                   "--template", "drakeslip/multibody/template.json")
+    assert code == 2 and "--template needs --backend multibody" in err and len(err.splitlines()) == 1

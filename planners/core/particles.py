@@ -79,7 +79,7 @@ def fly_particles(check, states, befores, angles, foothold, seen, fan):
     return True, ends, hops
 
 
-@compiled(inline="always")
+@compiled(inline="always")   # many parameters: compiled, per particle in the check's loop, its buffer passed in
 def ways_on(apex, before, fan, wanted, depth, check, i, seen, out):
     """(how many of ``fan``'s leg angles, up to ``wanted``, start a way on from ``apex`` after the hop ``before``,
     hops flown) for particle
