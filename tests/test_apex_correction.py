@@ -9,7 +9,8 @@ import pytest
 
 from drakeslip import SlipParams, Terrain
 from drakeslip.apex_correction import (ARRAYS, N_IN, N_OUT, ApexCorrection, correction_of, hop_inputs,
-                                       load_correction, output_units, save_correction, template_step)
+                                       load_correction, output_units, save_correction)
+from drakeslip.fast_correction import template_step
 from drakeslip.fast_step import N_OUT as STEP_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
 from drakeslip.hopper_file import NamedHopper, load_hopper, save_hopper
 from drakeslip.multibody.fit import Hop

@@ -8,10 +8,10 @@ from collections import namedtuple
 
 import numpy as np
 
-from drakeslip.apex_correction import template_step
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
+from drakeslip.fast_correction import template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now

@@ -7,9 +7,9 @@ from collections import namedtuple
 
 import numpy as np
 
-from drakeslip.apex_correction import template_step
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
+from drakeslip.fast_correction import template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 from drakeslip.terrain import Ground
 
