@@ -34,8 +34,8 @@ def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out):
     k += hidden * N_OUT
     b3 = p[k:k + N_OUT]
     k += N_OUT
-    low, high, mean, scale = p[k:k + N_IN], p[k + N_IN:k + 2 * N_IN], p[k + 2 * N_IN:k + 3 * N_IN], p[
-        k + 3 * N_IN:k + 4 * N_IN]
+    low, high = p[k:k + N_IN], p[k + N_IN:k + 2 * N_IN]
+    mean, scale = p[k + 2 * N_IN:k + 3 * N_IN], p[k + 3 * N_IN:k + 4 * N_IN]
     out_scale = p[k + 4 * N_IN:k + 4 * N_IN + N_OUT]
     raw = np.empty(N_IN)
     raw[0], raw[1], raw[2] = (az - foot_z) / leg, axdot / speed_unit, (foot_x - ax) / leg
@@ -46,25 +46,24 @@ def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out):
     u = np.empty(N_IN)
     for i in range(N_IN):
         u[i] = (min(max(raw[i], low[i]), high[i]) - mean[i]) / scale[i]
-    h1 = np.empty(hidden)
-    for j in range(hidden):
-        acc = b1[j]
-        for i in range(N_IN):
-            acc += u[i] * w1[i * hidden + j]
-        h1[j] = math.tanh(acc)
-    h2 = np.empty(hidden)
-    for j in range(hidden):
-        acc = b2[j]
-        for i in range(hidden):
-            acc += h1[i] * w2[i * hidden + j]
-        h2[j] = math.tanh(acc)
-    for o in range(N_OUT):
-        acc = b3[o]
-        for i in range(hidden):
-            acc += h2[i] * w3[i * N_OUT + o]
-        unit = speed_unit if o == 2 else leg
-        col = OUT_X if o == 0 else (OUT_Z if o == 1 else OUT_XDOT)
-        out[col] += acc * out_scale[o] * unit
+    h = dense(dense(u, w1, b1, hidden, True), w2, b2, hidden, True)
+    y = dense(h, w3, b3, N_OUT, False)
+    out[OUT_X] += y[0] * out_scale[0] * leg
+    out[OUT_Z] += y[1] * out_scale[1] * leg
+    out[OUT_XDOT] += y[2] * out_scale[2] * speed_unit
+
+
+@compiled(inline="always")
+def dense(x, w, b, n_out, squash):
+    """x @ w + b for ``w`` stored flat, (inputs, outputs) row by row, each output summed in input order from its
+    bias; tanh'd where ``squash``."""
+    y = np.empty(n_out)
+    for j in range(n_out):
+        acc = b[j]
+        for i in range(x.shape[0]):
+            acc += x[i] * w[i * n_out + j]
+        y[j] = math.tanh(acc) if squash else acc
+    return y
 
 
 @compiled(inline="always")

@@ -13,7 +13,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams
 from drakeslip.noise import NoiseProfile
-from drakeslip.params import check_number
+from drakeslip.params import RobotTemplate, check_number
 from drakeslip.rollout import ROLLOUT_BACKENDS
 from drakeslip.terrain import Terrain, check_window
 from drakeslip.units import units_of
@@ -145,8 +145,10 @@ class Replanner:
         window = self.terrain.perceived(seen.x, *units_of(self.params).window)   # the hopper's view
         sensed = window if self.noise.silent else self.noise.perceived(window, rng, self.map_filter)
         try:
+            # the hop before matters only to a template with a learned correction; other planners are not told it
+            told = {"before": before} if before is not None and isinstance(self.params, RobotTemplate) else {}
             plan = self.planner.plan(seen, sensed.without_footholds_before_rises(self.face_keep_out), self.aim_x,
-                                     self.params, before)
+                                     self.params, **told)
             record = plan.summary()
         except ValueError as refusal:  # a noisy apex the planner cannot start from (below the ground it sees)
             if self.raise_refusals:
