@@ -67,6 +67,16 @@ def dense(x, w, b, n_out, squash):
 
 
 @compiled(inline="always")
+def hop_before(apex, foothold, ground):
+    """The hop from ``apex`` (x, z, xdot) that touched down at ``foothold`` on ``ground`` as the correction takes
+    the hop before another (``before``: apex height above the foothold, speed, foothold ahead, 1)."""
+    before = np.empty(4)
+    before[0] = apex[1] - height_at(ground.heights, ground.x0, ground.cell, foothold)
+    before[1], before[2], before[3] = apex[2], foothold - apex[0], 1.0
+    return before
+
+
+@compiled(inline="always")
 def template_step(ax, az, axdot, leg_angle, p, ground, before, out):
     """One hop of the hopper ``p`` over ``ground`` as ``drakeslip.fast_step.step_one`` writes it into ``out``, its
     next apex corrected where ``p`` carries a correction (a ``RobotTemplate``'s, after the hop ``before``)."""

@@ -222,7 +222,7 @@ class Planner(ABC):
         window_end = min(apex.x + horizon, terrain.known_end)
         target_x = min(goal_x, window_end - margin)
         return Problem(apex, terrain, goal_x, params, units, window_end, target_x, t0 + self.budget.max_time_s,
-                       before=hop_before(before, terrain))
+                       before=before_features(before, terrain))
 
     @abstractmethod
     def _plan(self, problem: Problem) -> Plan:
@@ -240,7 +240,7 @@ class Planner(ABC):
         return files
 
 
-def hop_before(before, terrain: Terrain) -> np.ndarray:
+def before_features(before, terrain: Terrain) -> np.ndarray:
     """``Problem.before`` for the hop ``before`` ((x, z, xdot, foothold x), None: not known) on ``terrain``."""
     if before is None:
         return np.zeros(4)

@@ -110,7 +110,7 @@ class FootstepPlannerSystem(LeafSystem):
         context.SetAbstractState(self._log, log)
         return command
 
-    def hop_before(self, records) -> tuple | None:
+    def last_hop(self, records) -> tuple | None:
         """The hop that reached this apex, as the last planning call saw it start, (x, z, xdot, foothold x): the
         first foothold it had the robot fly, when the robot plans at every apex (None: not known)."""
         if not records or self.replan_every != 1:
@@ -147,7 +147,7 @@ class FootstepPlannerSystem(LeafSystem):
         noise, params = self.replanner.noise, self.replanner.params
         rng = copy.deepcopy(log.rng)
         error = None if noise.silent else noise.apex_errors(rng, 1)[0]
-        call = self.replanner.plan(apex, error, rng, self.hop_before(log.records))
+        call = self.replanner.plan(apex, error, rng, self.last_hop(log.records))
         record, seen = call.record, call.seen
         record["stamp"] = stamp
         success = record["success"]

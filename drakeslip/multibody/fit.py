@@ -32,7 +32,7 @@ SPEED_CHANGE_EDGES = (-1.0, 0.0, 1.0)
 class Hop:
     """One robot hop: from ``apex`` (x, z, xdot) it touched down at ``foothold`` (ground ``height``) and reached
     ``next_apex``; ``previous``, the robot's hop before it (None at the start of a run), whose effects the robot
-    carries into this one (``drakeslip.multibody.correction``)."""
+    carries into this one (``drakeslip.apex_correction``)."""
 
     apex: tuple
     foothold: float

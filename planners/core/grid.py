@@ -11,7 +11,7 @@ import numpy as np
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
-from drakeslip.fast_correction import template_step
+from drakeslip.fast_correction import hop_before, template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
@@ -103,17 +103,11 @@ def aim_candidates(x, z, v, x_l, ground, controller, edge_margin, max_angle):
 
 
 @compiled(inline="always")
-def hop_before(tree, node, ground, root_before):
-    """The hop that reached ``node`` as ``drakeslip.apex_correction`` takes it (``before``): ``root_before`` at
-    the root."""
+def node_before(tree, node, ground, root_before):
+    """The hop that reached ``node`` as the learned correction takes it (``drakeslip.fast_correction.hop_before``):
+    ``root_before`` at the root."""
     parent = tree.parent[node]
-    if parent < 0:
-        return root_before
-    foothold = tree.foothold[node]
-    before = np.empty(4)
-    before[0] = tree.apex[parent, 1] - height_at(ground.heights, ground.x0, ground.cell, foothold)
-    before[1], before[2], before[3] = tree.apex[parent, 2], foothold - tree.apex[parent, 0], 1.0
-    return before
+    return root_before if parent < 0 else hop_before(tree.apex[parent], tree.foothold[node], ground)
 
 
 @compiled(inline="always")
@@ -186,7 +180,7 @@ def expand_grid(expansion, state, tree, size, node, slots):
     ok = np.zeros(n, np.bool_)
     apexes = np.zeros((n, 3))
     out = np.empty(N_OUT)
-    before = hop_before(tree, node, e.ground, e.root_before)
+    before = node_before(tree, node, e.ground, e.root_before)
     calls = 0
     for i in range(n):
         if theta[i] == theta[i]:

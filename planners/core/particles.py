@@ -9,7 +9,7 @@ import numpy as np
 
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
-from drakeslip.fast_correction import template_step
+from drakeslip.fast_correction import hop_before, template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 from drakeslip.terrain import Ground
 
@@ -25,16 +25,6 @@ Worlds = namedtuple("Worlds", ["params", "heights", "x0", "cell", "ditch_height"
 def world_ground(worlds, w):
     """World ``w``'s terrain as the step map reads it (its lowest height unused there)."""
     return Ground(worlds.heights[w], worlds.x0[w], worlds.cell, worlds.ditch_height, 0.0)
-
-
-@compiled(inline="always")
-def hop_of(state, touchdown, ground):
-    """The hop from apex ``state`` that touched down at ``touchdown`` on ``ground``, as
-    ``drakeslip.apex_correction`` takes the hop before another (``before``)."""
-    before = np.empty(4)
-    before[0] = state[1] - height_at(ground.heights, ground.x0, ground.cell, touchdown)
-    before[1], before[2], before[3] = state[2], touchdown - state[0], 1.0
-    return before
 
 
 @compiled()
@@ -71,7 +61,7 @@ def fly_particles(check, states, befores, angles, foothold, seen, fan):
                 and clear_of_edges_at(seen.heights, seen.x0, cell, landed, check.edge_margin)):
             return False, ends, hops
     for i in range(n if fan.size else 0):
-        before = hop_of(states[i], touchdowns[i], world_ground(worlds, check.world[i]))
+        before = hop_before(states[i], touchdowns[i], world_ground(worlds, check.world[i]))
         found, flown = ways_on(ends[i], before, fan, check.lookahead, check.lookahead_depth, check, i, seen, out)
         hops += flown
         if found < check.lookahead:
@@ -113,7 +103,7 @@ def ways_on(apex, before, fan, wanted, depth, check, i, seen, out):
             level = 0
             angle[0] += 1
         else:
-            befores[level + 1] = hop_of(state[level], out[OUT_TD_X], ground)
+            befores[level + 1] = hop_before(state[level], out[OUT_TD_X], ground)
             level += 1
             state[level, 0], state[level, 1], state[level, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
             angle[level] = 0

@@ -12,10 +12,11 @@ import numpy as np
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
 from drakeslip.fast_controller import aim_rows
+from drakeslip.fast_correction import hop_before
 
 from planners.core.best_first import ADMITTED, REFUTED
 from planners.core.clock import CONTROLLER, STEP_MAP, now
-from planners.core.particles import NO_FAN, Worlds, fly_particles, hop_of
+from planners.core.particles import NO_FAN, Worlds, fly_particles
 from planners.core.tree import CAPACITY, copy_head, grown
 
 # The particles' errors and worlds, and what a robust hop asks of them: how many of a sequence's first hops they
@@ -98,7 +99,7 @@ def robust_admit(admission, state, tree, node, slots):
         if tree.parent[parent] < 0:
             befores[i] = admission.root_before
         else:
-            befores[i] = hop_of(states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
+            befores[i] = hop_before(states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
     t0 = now()
     angles = aim_particles(check, here, foothold, admission.ground, admission.controller)
     t1 = now()

@@ -16,7 +16,7 @@ from drakeslip.compiled import compiled
 from drakeslip.fast_step import N_OUT, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, MODEL, STEP_MAP, now
-from planners.core.grid import aim_candidates, children_of, fly, grid_candidates, hop_before
+from planners.core.grid import aim_candidates, children_of, fly, grid_candidates, node_before
 from planners.core.model import encode, first_gates, first_step_logits, masked_softmax
 from planners.core.tree import Children, copy_head, grown
 
@@ -205,7 +205,7 @@ def expand_sampled(e, state, tree, size, node, slots):
     order = state.cand_order[first:first + state.n_order[slot]]
     ok, apexes, tried = np.zeros(n, np.bool_), np.zeros((n, 3)), np.empty(n, np.int64)
     out = np.empty(N_OUT)
-    before = hop_before(tree, node, e.ground, e.root_before)
+    before = node_before(tree, node, e.ground, e.root_before)
     n_tried = calls = 0
     while state.pos[slot] < order.shape[0] or state.n_ready[slot] > 0:
         aim_next(e, state, slot, (x, z, v), x_l, theta, order, slots)
