@@ -200,3 +200,21 @@ def test_evaluate_takes_a_template_for_the_robot_only(run_script):
     code, stdout, err = run_script("evaluate", "--suite", "suites/ditch.json", "--out", "out/x.json",
                                    "--template", "drakeslip/multibody/template.json")
     assert code == 2 and "--template needs --backend multibody" in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.slow
+def test_fit_correction_regenerates_a_template_that_loads(run_script, tmp_path):
+    """The regeneration command end to end on a few cases: it runs them on the robot, keeps their hops, trains,
+    and writes a corrected template whose weights load against their digest; run again, it reuses the hops."""
+    out, hops = tmp_path / "corrected.json", tmp_path / "hops.json"
+    args = ["--families", "ditch", "--cases", "4", "--held-out", "2", "--epochs", "30", "--device", "cpu",
+            "--out", out, "--hops", hops]
+    code, stdout, err = run_script("fit_correction", *args)
+    assert code == 0, err
+    assert "0 cases from" in stdout and "template+correction" in stdout
+    template = load_hopper(out).params
+    assert isinstance(template, RobotTemplate) and (tmp_path / "template_correction.npz").is_file()
+    assert template.slip == load_hopper("drakeslip/multibody/template.json").params
+    code, stdout, _ = run_script("fit_correction", *args)
+    assert code == 0 and "4 cases from" in stdout and "0 to run" in stdout
+    assert load_hopper(out).params == template   # the same hops, the same weights
