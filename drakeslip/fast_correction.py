@@ -13,7 +13,7 @@ from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_step import OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, STANCE_STEPS, step_one
 
 
-@compiled(inline="always")
+@compiled()   # not inlined: compiled once, not into every search and check that may call it (seconds of first run)
 def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out):
     """Add the correction packed in ``p`` after its N_PARAMS parameters to the next apex in ``out`` (a
     ``step_one`` output) of the hop from apex (ax, az, axdot) that touched down at (foot_x, foot_z), after the hop
