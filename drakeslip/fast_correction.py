@@ -67,13 +67,15 @@ def dense(x, w, b, n_out, squash):
 
 
 @compiled(inline="always")
-def hop_before(apex, foothold, ground):
-    """The hop from ``apex`` (x, z, xdot) that touched down at ``foothold`` on ``ground`` as the correction takes
-    the hop before another (``before``: apex height above the foothold, speed, foothold ahead, 1)."""
-    before = np.empty(4)
-    before[0] = apex[1] - height_at(ground.heights, ground.x0, ground.cell, foothold)
-    before[1], before[2], before[3] = apex[2], foothold - apex[0], 1.0
-    return before
+def set_hop_before(row, apex, foothold, ground):
+    """Write into ``row`` the hop from ``apex`` (x, z, xdot) that touched down at ``foothold`` on ``ground`` as the
+    correction takes the hop before another (``before``: apex height above the foothold, speed, foothold ahead, 1).
+    Element by element: an array assigned to a row compiles a shape check and its error message, seconds of a
+    machine's first run."""
+    row[0] = apex[1] - height_at(ground.heights, ground.x0, ground.cell, foothold)
+    row[1] = apex[2]
+    row[2] = foothold - apex[0]
+    row[3] = 1.0
 
 
 @compiled(inline="always")

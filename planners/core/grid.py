@@ -11,7 +11,7 @@ import numpy as np
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import I_GRAVITY, I_LEG_LENGTH, height_at
 from drakeslip.fast_controller import aim_rows
-from drakeslip.fast_correction import hop_before, template_step
+from drakeslip.fast_correction import set_hop_before, template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 
 from planners.core.clock import CONTROLLER, STEP_MAP, now
@@ -104,10 +104,14 @@ def aim_candidates(x, z, v, x_l, ground, controller, edge_margin, max_angle):
 
 @compiled(inline="always")
 def node_before(tree, node, ground, root_before):
-    """The hop that reached ``node`` as the learned correction takes it (``drakeslip.fast_correction.hop_before``):
+    """The hop that reached ``node`` as the learned correction takes it (``drakeslip.fast_correction.set_hop_before``):
     ``root_before`` at the root."""
     parent = tree.parent[node]
-    return root_before if parent < 0 else hop_before(tree.apex[parent], tree.foothold[node], ground)
+    if parent < 0:
+        return root_before
+    before = np.empty(4)
+    set_hop_before(before, tree.apex[parent], tree.foothold[node], ground)
+    return before
 
 
 @compiled(inline="always")

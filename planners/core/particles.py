@@ -9,7 +9,7 @@ import numpy as np
 
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
-from drakeslip.fast_correction import hop_before, template_step
+from drakeslip.fast_correction import set_hop_before, template_step
 from drakeslip.fast_step import N_OUT, OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z
 from drakeslip.terrain import Ground
 
@@ -61,7 +61,8 @@ def fly_particles(check, states, befores, angles, foothold, seen, fan):
                 and clear_of_edges_at(seen.heights, seen.x0, cell, landed, check.edge_margin)):
             return False, ends, hops
     for i in range(n if fan.size else 0):
-        before = hop_before(states[i], touchdowns[i], world_ground(worlds, check.world[i]))
+        before = np.empty(4)
+        set_hop_before(before, states[i], touchdowns[i], world_ground(worlds, check.world[i]))
         found, flown = ways_on(ends[i], before, fan, check.lookahead, check.lookahead_depth, check, i, seen, out)
         hops += flown
         if found < check.lookahead:
@@ -81,7 +82,8 @@ def ways_on(apex, before, fan, wanted, depth, check, i, seen, out):
     p, ground, cell = worlds.params[w], world_ground(worlds, w), worlds.cell
     state = np.empty((depth, 3))
     befores = np.empty((depth, 4))   # the hop before each hop of the way
-    befores[0] = before
+    for k in range(4):
+        befores[0, k] = before[k]
     angle = np.zeros(depth, np.int64)  # at each hop of the way being tried, the index of its fan angle
     state[0, 0], state[0, 1], state[0, 2] = apex[0], apex[1], apex[2]
     found = hops = level = 0
@@ -103,7 +105,7 @@ def ways_on(apex, before, fan, wanted, depth, check, i, seen, out):
             level = 0
             angle[0] += 1
         else:
-            befores[level + 1] = hop_before(state[level], out[OUT_TD_X], ground)
+            set_hop_before(befores[level + 1], state[level], out[OUT_TD_X], ground)
             level += 1
             state[level, 0], state[level, 1], state[level, 2] = out[OUT_X], out[OUT_Z], out[OUT_XDOT]
             angle[level] = 0

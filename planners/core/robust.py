@@ -12,7 +12,7 @@ import numpy as np
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import height_at
 from drakeslip.fast_controller import aim_rows
-from drakeslip.fast_correction import hop_before
+from drakeslip.fast_correction import set_hop_before
 
 from planners.core.best_first import ADMITTED, REFUTED
 from planners.core.clock import CONTROLLER, STEP_MAP, now
@@ -97,9 +97,10 @@ def robust_admit(admission, state, tree, node, slots):
     befores = np.empty((here.shape[0], 4))   # the hops that brought the particles to the parent
     for i in range(here.shape[0]):
         if tree.parent[parent] < 0:
-            befores[i] = admission.root_before
+            for k in range(4):
+                befores[i, k] = admission.root_before[k]
         else:
-            befores[i] = hop_before(states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
+            set_hop_before(befores[i], states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
     t0 = now()
     angles = aim_particles(check, here, foothold, admission.ground, admission.controller)
     t1 = now()
