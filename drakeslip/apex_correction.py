@@ -82,19 +82,11 @@ class ApexCorrection:
     def __post_init__(self):
         object.__setattr__(self, "arrays", read_arrays(str(self.path), self.sha256))
 
-    def __call__(self, inputs: np.ndarray) -> np.ndarray:
-        """``correction_of`` this correction's network."""
-        return correction_of(self.arrays, inputs)
-
     def packed(self) -> np.ndarray:
         """The network as ``drakeslip.fast_correction`` reads it after a hopper's parameters: the hidden units,
         then every array of ``ARRAYS`` flattened in order."""
         a = self.arrays
         return np.concatenate([[float(a["b1"].shape[0])], *(np.ravel(a[name]) for name in ARRAYS)])
-
-    def held_out(self) -> dict:
-        """The errors it makes on the hops it was tested on (``HELD_OUT_FIELDS``: [m] and [m/s])."""
-        return dict(zip(HELD_OUT_FIELDS, map(float, self.arrays["held_out"])))
 
 
 def save_correction(path, arrays: dict) -> str:

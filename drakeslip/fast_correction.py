@@ -17,7 +17,7 @@ from drakeslip.fast_step import OK, OUT_CODE, OUT_TD_X, OUT_X, OUT_XDOT, OUT_Z, 
 def corrected_apex(p, before, ax, az, axdot, foot_x, foot_z, out):
     """Add the correction packed in ``p`` after its N_PARAMS parameters to the next apex in ``out`` (a
     ``step_one`` output) of the hop from apex (ax, az, axdot) that touched down at (foot_x, foot_z), after the hop
-    ``before`` (see the module doc): ``ApexCorrection.__call__`` in compiled code."""
+    ``before`` (see the module doc): ``drakeslip.apex_correction.correction_of`` in compiled code."""
     leg, g = p[I_LEG_LENGTH], p[I_GRAVITY]
     speed_unit = math.sqrt(g * leg)
     hidden = int(p[N_PARAMS])

@@ -1,5 +1,5 @@
 """The robot's hops as the plans meant them, from closed-loop runs: what the template and its learned correction are
-fitted to (``examples/fit_template.py``).
+fitted to (``examples/fit_correction.py``).
 
 A hop counts when the robot flew it aiming at a foothold of a plan, with the energy the plan keeps: hops by Raibert's
 placement (no plan), and hops whose stance pumped energy beyond the template's (``EnergyPump``), are the robot doing

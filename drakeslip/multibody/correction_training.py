@@ -1,9 +1,10 @@
-"""Training the fitted template's learned correction (``drakeslip.multibody.correction``) on the robot's hops.
+"""Training the fitted template's learned correction (``drakeslip.apex_correction``) on the robot's hops.
 
 The network learns the robot's next apex minus the template's (``fit.predict``) for each hop the robot flew as a
 plan meant it (``verification/robot_hops.py``) from the hop and the hop before it (``hop_inputs``); full-batch Adam
 on the squared error of the standardized outputs, the inputs standardized over the training hops and held inside
-their range. ``train_correction`` returns the correction with the errors the template plus it makes on held-out hops.
+their range. ``train_correction`` returns the network's arrays with the errors the template plus it makes on held-out
+hops.
 """
 from __future__ import annotations
 

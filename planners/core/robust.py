@@ -95,12 +95,13 @@ def robust_admit(admission, state, tree, node, slots):
     here = states[row_of[parent]]
     foothold = tree.foothold[node]
     befores = np.empty((here.shape[0], 4))   # the hops that brought the particles to the parent
+    grandparent = tree.parent[parent]
     for i in range(here.shape[0]):
-        if tree.parent[parent] < 0:
+        if grandparent < 0:
             for k in range(4):
                 befores[i, k] = admission.root_before[k]
         else:
-            set_hop_before(befores[i], states[row_of[tree.parent[parent]], i], tree.foothold[parent], admission.ground)
+            set_hop_before(befores[i], states[row_of[grandparent], i], tree.foothold[parent], admission.ground)
     t0 = now()
     angles = aim_particles(check, here, foothold, admission.ground, admission.controller)
     t1 = now()
