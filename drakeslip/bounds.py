@@ -70,3 +70,8 @@ MAX_WINDOW_CELLS = 1_000_000
 TERRAIN_FILE_BYTES = 16 * 2**20            # the file's size, checked before it is read
 TERRAIN_NUMBERS = 400_000                  # the numbers (x values and heights) of its rows, counted as they are read
 TERRAIN_CELLS = 1_000_000                  # cells of the map the rows are resampled onto
+# A height map (drakeslip/spatial/heightmap.py) is held whole in memory and read cell by cell by the compiled step
+# map: 4 million cells (32 MB) are a 2 km x 2 km DEM at 1 m, or 100 m x 100 m at 5 cm; a map of more cells comes
+# from a cell size no robot's map uses. Its file (.npz) is read only up to HEIGHT_MAP_FILE_BYTES.
+HEIGHT_MAP_CELLS = 4_000_000
+HEIGHT_MAP_FILE_BYTES = 64 * 2**20

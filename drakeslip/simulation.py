@@ -10,7 +10,8 @@ from pydrake.systems.analysis import ResetIntegratorFromFlags, Simulator
 from pydrake.systems.framework import DiagramBuilder, EventStatus
 from pydrake.systems.primitives import LogVectorOutput
 
-from drakeslip.slip_hopper import ApexPolicy, HybridEvent, HybridState, Mode, SlipHopper
+from drakeslip.hybrid_hopper import ApexPolicy, HybridEvent, HybridHopper, Mode
+from drakeslip.slip_hopper import SlipHopper
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState, FailureMode, SimulationCrash, StepResult, check_apex
 from drakeslip.terrain import Terrain
@@ -77,10 +78,12 @@ class SimulationResult:
         return sum(1 for e in self.events if e.kind == "apex" and e.time <= self.failure_event.time)
 
 
-def _policy_from(leg_angles) -> Callable:
+def policy_from(leg_angles, as_command: Callable = float) -> Callable:
+    """``leg_angles`` if it is a policy, else the policy that gives the commands of the list (``as_command`` of each)
+    one per hop, then None."""
     if callable(leg_angles):
         return leg_angles
-    angles = [float(a) for a in leg_angles]
+    angles = [as_command(a) for a in leg_angles]
     return lambda apex, hop: angles[hop] if hop < len(angles) else None
 
 
@@ -115,63 +118,76 @@ def simulate(apex, leg_angles: Sequence[float] | Callable, terrain: Terrain | No
     if max_hops is not None and max_hops < 1:
         raise ValueError(f"max_hops must be at least 1, got {max_hops}")
     used_angles: list[float] = []
-    policy = _counted_policy(_policy_from(leg_angles), max_hops, used_angles)
-    diagram, hopper, logs, when_done = _hopper_diagram(params, terrain, policy, log, add_to)
-
-    simulator = Simulator(diagram)
-    context = simulator.get_mutable_context()
-    hopper_context = hopper.GetMyMutableContextFromRoot(context)
-    hopper.set_apex(hopper_context, apex)
-    ResetIntegratorFromFlags(simulator, integrator.scheme, integrator.max_step)
-    context.SetAccuracy(integrator.accuracy)
-    timed_out = [False]
-    simulator.set_monitor(_hop_monitor(hopper, max_hop_time, timed_out))
-    advance(simulator, max_time, lambda: f"{Mode(int(hopper.hybrid(hopper_context).mode)).name}, state "
-                                         f"({', '.join(f'{v:g}' for v in hopper.body(hopper_context)[:])})")
-    if callable(when_done):
-        when_done(simulator)
-
-    events, failure_event = _failure_of(hopper, hopper_context, context.get_time(), timed_out[0])
-    if logs is not None:
-        slog, hlog = logs[0].FindLog(context), logs[1].FindLog(context)
-        times, states, hybrid = slog.sample_times(), slog.data().T.copy(), hlog.data().T.copy()
-    else:
-        times, states, hybrid = np.zeros(0), np.zeros((0, 4)), np.zeros((0, len(HybridState._fields)))
+    policy = counted_policy(policy_from(leg_angles), max_hops, used_angles, float)
+    hopper = SlipHopper(params, terrain)
+    run = run_hopper(hopper, lambda context: hopper.set_apex(context, apex), policy, max_time, max_hop_time,
+                     integrator, log, add_to)
+    times, states, hybrid, events, failure_event, steps = run
     return SimulationResult(times=times, states=states, hybrid=hybrid, events=events,
                             failure=failure_event.failure if failure_event else None, failure_event=failure_event,
-                            integrator_steps=simulator.get_integrator().get_num_steps_taken(),
+                            integrator_steps=steps,
                             params=params, terrain=terrain, leg_angles=used_angles)
 
 
-def _counted_policy(user_policy: Callable, max_hops: int | None, used_angles: list) -> Callable:
-    """``user_policy`` stopped after ``max_hops`` hops, appending each hop's angle to ``used_angles`` once."""
+def counted_policy(user_policy: Callable, max_hops: int | None, used: list, as_command: Callable) -> Callable:
+    """``user_policy`` stopped after ``max_hops`` hops, appending each hop's command (``as_command`` of it) to
+    ``used`` once."""
     def policy(a, hop):
         if max_hops is not None and hop >= max_hops:
             return None
-        angle = user_policy(a, hop)
-        if angle is not None and len(used_angles) == hop:
-            used_angles.append(float(angle))
-        return angle
+        command = user_policy(a, hop)
+        if command is not None and len(used) == hop:
+            used.append(as_command(command))
+        return command
 
     return policy
 
 
-def _hopper_diagram(params: SlipParams, terrain: Terrain, policy: Callable, log: bool, add_to: Callable | None):
-    """(diagram, hopper, (state logger, hybrid logger) or None, what ``add_to`` returned): the hopper driven by
-    ``policy``, its outputs logged when ``log``, and the caller's systems."""
+# many parameters: simulate's options, passed on
+def run_hopper(hopper: HybridHopper, start: Callable, policy: Callable, max_time: float, max_hop_time: float,
+               integrator: IntegratorConfig, log: bool, add_to: Callable | None) -> tuple:
+    """Simulate ``hopper`` (a SlipHopper or SlipHopper3D), put at its start by ``start(hopper_context)`` and commanded
+    by ``policy``, as ``simulate`` says: (times, body states, hybrid states, the event log, its first failure event or
+    None, integrator steps)."""
+    diagram, logs, when_done = hopper_diagram(hopper, policy, log, add_to)
+    simulator = Simulator(diagram)
+    context = simulator.get_mutable_context()
+    hopper_context = hopper.GetMyMutableContextFromRoot(context)
+    start(hopper_context)
+    ResetIntegratorFromFlags(simulator, integrator.scheme, integrator.max_step)
+    context.SetAccuracy(integrator.accuracy)
+    timed_out = [False]
+    simulator.set_monitor(hop_monitor(hopper, max_hop_time, timed_out))
+    advance(simulator, max_time, lambda: f"{Mode(int(hopper.hybrid(hopper_context).mode)).name}, state "
+                                         f"({', '.join(f'{v:g}' for v in hopper.body(hopper_context)[:])})")
+    if callable(when_done):
+        when_done(simulator)
+    events, failure_event = failure_of(hopper, hopper_context, context.get_time(), timed_out[0])
+    if logs is not None:
+        slog, hlog = logs[0].FindLog(context), logs[1].FindLog(context)
+        times, states, hybrid = slog.sample_times(), slog.data().T.copy(), hlog.data().T.copy()
+    else:
+        times = np.zeros(0)
+        states, hybrid = np.zeros((0, len(hopper.BODY._fields))), np.zeros((0, len(hopper.HYBRID._fields)))
+    return times, states, hybrid, events, failure_event, simulator.get_integrator().get_num_steps_taken()
+
+
+def hopper_diagram(hopper: HybridHopper, policy: Callable, log: bool, add_to: Callable | None):
+    """(diagram, (state logger, hybrid logger) or None, what ``add_to`` returned): ``hopper`` driven by ``policy``,
+    its outputs logged when ``log``, and the caller's systems."""
     builder = DiagramBuilder()
-    hopper = builder.AddSystem(SlipHopper(params, terrain))
-    controller = builder.AddSystem(ApexPolicy(policy))
+    builder.AddSystem(hopper)
+    controller = builder.AddSystem(ApexPolicy(policy, hopper))
     builder.Connect(hopper.GetOutputPort("state"), controller.get_input_port(0))
     builder.Connect(hopper.GetOutputPort("hybrid"), controller.get_input_port(1))
     builder.Connect(controller.get_output_port(0), hopper.get_input_port(0))
     logs = (LogVectorOutput(hopper.GetOutputPort("state"), builder),
             LogVectorOutput(hopper.GetOutputPort("hybrid"), builder)) if log else None
     when_done = add_to(builder, hopper) if add_to is not None else None
-    return builder.Build(), hopper, logs, when_done
+    return builder.Build(), logs, when_done
 
 
-def _hop_monitor(hopper: SlipHopper, max_hop_time: float, timed_out: list) -> Callable:
+def hop_monitor(hopper: HybridHopper, max_hop_time: float, timed_out: list) -> Callable:
     """The simulator's monitor: ends the run when the hopper fails or halts, or (setting ``timed_out[0]``) when a
     hop has lasted more than ``max_hop_time`` [s] since the last liftoff."""
     last_liftoff = [0.0, 0]
@@ -191,14 +207,14 @@ def _hop_monitor(hopper: SlipHopper, max_hop_time: float, timed_out: list) -> Ca
     return monitor
 
 
-def _failure_of(hopper: SlipHopper, hopper_context, time: float, timed_out: bool) -> tuple:
+def failure_of(hopper: HybridHopper, hopper_context, time: float, timed_out: bool) -> tuple:
     """(the event log, its first failure event or None): a run the monitor timed out at ``time`` without a failure
     gets a TIMEOUT event, appended to the log."""
     events = hopper.event_log(hopper_context)
     failure_event = next((e for e in events if e.kind == "failure"), None)
     if failure_event is None and timed_out:
         h, s = hopper.hybrid(hopper_context), hopper.body(hopper_context)
-        failure_event = HybridEvent("failure", time, tuple(float(v) for v in s[:]), None, float(h.leg_angle),
+        failure_event = HybridEvent("failure", time, tuple(float(v) for v in s[:]), None, hopper.leg_command(h),
                                     FailureMode.TIMEOUT)
         events = events + (failure_event,)
     return events, failure_event

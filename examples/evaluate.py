@@ -19,6 +19,17 @@ a spread-out sample of the cases:
         --options '{"step": {"step_map": "drake"}, "lstm-guided": {"step_map": "drake"}}' --baseline step \
         --out out/drake.json
 
+A height-map suite (examples/make_suites.py --families gaps,stones,stairs,blocks,course; format
+drakeslip-map-suite/1, planners/formats/map_suite.py) is taken the same way: each case runs in the receding-horizon
+loop on its map (planners/spatial_loop.py: the window ahead and aside, the plan's first footholds flown on Drake's
+spatial SLIP, or with --backend fast on the compiled spatial step map), through the same cache, and the same table
+is printed, with or without a noise profile (its 3D form, drakeslip/spatial/noise.py) and the robot's map filter.
+There is no robot on maps yet: --backend multibody and --template are refused in one line, as are planners that plan
+on profiles only:
+
+    python3 examples/evaluate.py --suite out/maps/gaps-7000.json --planners step --backend fast --jobs 2 \
+        --out out/gaps.json
+
 The planners plan for the suite's hopper (the paper's when it records none), and the results record it. --hopper (a
 hopper file or folder, examples/train_hopper.py) must be that hopper, whose folder's weights the planners then
 read; a suite drawn for another hopper is refused in one line (examples/make_suites.py --hopper draws one for it).
@@ -44,7 +55,8 @@ from planners.registry import check_label, label_options, loop_settings
 
 def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--suite", type=cli.input_file, required=True, help="suite file (format drakeslip-suite/1)")
+    ap.add_argument("--suite", type=cli.input_file, required=True,
+                    help="suite file (format drakeslip-suite/1, or drakeslip-map-suite/1: height maps)")
     ap.add_argument("--planners", type=cli.names, default="heuristic,angle,step",
                     help="planner labels, comma-separated: a name or NAME@VARIANT (a preset such as lstm@paper, or "
                          "any variant with options from --options)")
@@ -127,25 +139,49 @@ def loop_configs(ap: cli.ArgumentParser, args, labels: list[str]) -> dict:
             for label in labels}
 
 
-def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict):
+def on_maps(ap: cli.ArgumentParser, args) -> bool:
+    """Whether --suite is a height-map suite (by its format); one line and exit status 2 for a file that is not
+    JSON. On one, an option the map loop does not apply is refused in one line, exit status 2."""
+    from drakeslip.jobs.files import read_json
+    from planners.formats.map_suite import is_map_suite
+
+    try:
+        maps = is_map_suite(read_json(args.suite, "suite file"))
+    except (OSError, ValueError) as error:
+        ap.error(str(error))
+    refused = [flag for flag, used in (("--backend multibody", args.backend == "multibody"),
+                                       ("--template", args.template is not None)) if used]
+    if maps and refused:
+        ap.error(f"{', '.join(refused)}: not applied on height maps ({args.suite} is a map suite: run it with "
+                 "--backend drake or fast, no --template)")
+    return maps
+
+
+def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict, configs: dict, maps: bool):
     """(the suite, {label: its planner spec for the suite's hopper}), the workers' weights read; or one line and exit
-    status 2 for a malformed suite, another hopper's suite, a bad option, a missing or damaged weights file."""
+    status 2 for a malformed suite, another hopper's suite, a bad option, a missing or damaged weights file, and on
+    a map suite a planner that plans on profiles only or a loop the map loop does not run (a preset's map filter)."""
     from drakeslip.jobs.executors import prepare
+    from planners.formats.map_suite import load_map_suite
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite
     from planners.registry import hopper_specs
-    from verification.evaluation import worker_setup
+    from verification.evaluation import check_map_planners, check_map_run, worker_setup
 
     specs = {label: options.get(label) for label in labels}
     try:
-        suite = load_suite(args.suite)
+        suite = load_map_suite(args.suite) if maps else load_suite(args.suite)
         hopper = hopper_for_suite(suite, args.hopper)
+        if maps:
+            check_map_run(configs)
         if args.backend == "multibody":
             from drakeslip.multibody.robot import check_robot_hopper
 
             check_robot_hopper(hopper, f"suite file {args.suite}")
         specs = hopper_specs(specs, hopper)
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
+        if maps:
+            check_map_planners()
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))
     return suite, specs
@@ -157,13 +193,14 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     labels, options = checked_labels(ap, args)
     executor = cli.executor(args)
+    maps = on_maps(ap, args)
     configs = loop_configs(ap, args, labels)
-    suite, specs = checked_suite(ap, args, labels, options)
+    suite, specs = checked_suite(ap, args, labels, options, configs, maps)
     cli.announce(argv)
 
     from drakeslip.jobs.runner import remove, write_json
     from verification.evaluation import evaluate
-    from verification.report import ratios, table
+    from verification.report import outcomes, ratios, table
 
     cache = str(args.out) + ".cases.jsonl"
     if args.no_resume:
@@ -173,6 +210,7 @@ def main(argv=None) -> int:
                        config=configs, progress=not args.quiet)
     write_json(args.out, results)
     print(table(results))
+    print(outcomes(results))
     if args.baseline:
         print(ratios(results, args.baseline))
     print(f"wrote {args.out}")

@@ -17,6 +17,16 @@ from x = --start-x to the goal --goal (default: the paper's -1 m and 11 m course
 Each family's suite is written to OUT/NAME.json: NAME is the family for the committed seeds, FAMILY-SEED for
 fresh ones (terrain i of the k-th family uses seed SEED + 1000 k + i).
 
+The height-map families (gaps, stones, stairs, blocks, course: drakeslip/spatial/families.py) write one height-map
+suite each (format drakeslip-map-suite/1, planners/formats/map_suite.py) to OUT/FAMILY-SEED.json: --terrains maps
+(15) drawn from seeds SEED, SEED + 1, ..., map i of n at difficulty i / (n - 1) (every difficulty from 0 to 1), each
+x the starts (--speeds x --heights above the ground at x = -1 m, y = 0, heading +x), goal (10, 0) m; --hopper draws
+them in its units (the maps with length = its leg / 0.5 m, the starts as the planar suites'). They need --seed.
+Planar and height-map families may be mixed in one call: each suite is its own kind, and the planar ones get the
+seeds they get without the others (k counts the planar families only).
+
+    python3 examples/make_suites.py --families gaps,stones,stairs,blocks,course --seed 58000 --out out/maps
+
 Exit status: 0 when the suites were written, 2 for a usage or input error (a malformed terrain file: one line naming
 its row).
 """
@@ -29,20 +39,22 @@ from pathlib import Path
 from drakeslip.jobs import cli
 from drakeslip import cli_physics
 from drakeslip.bounds import POSITION, SPEED
-from drakeslip.terrain import TERRAIN_FAMILIES, check_families
+from drakeslip.spatial.families import HEIGHT_MAP_FAMILIES
+from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
 
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
     ap.add_argument("--families", type=cli.names, default="ditch,step",
-                    help=f"terrain families, comma-separated, from {','.join(sorted(TERRAIN_FAMILIES))}")
+                    help=f"families, comma-separated: terrain profiles from {','.join(sorted(TERRAIN_FAMILIES))}, "
+                         f"height maps from {','.join(HEIGHT_MAP_FAMILIES)}")
     ap.add_argument("--seed", type=cli.non_negative_int, default=None,
                     help="base terrain seed (terrain i of the k-th family uses seed + 1000 k + i); "
                          "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
                                                                            COMMITTED_SEEDS.items()))
     ap.add_argument("--terrains", type=count_or_folder, default=PAPER_TERRAINS,
-                    help="terrains per suite, or a folder of terrain files making one suite")
+                    help="terrains (or height maps) per suite, or a folder of terrain files making one suite")
     cli_physics.add_hopper_argument(ap)
     ap.add_argument("--speeds", type=cli.numbers(None, cli_physics.physical(SPEED, positive=True)), default=None,
                     help=f"apex speeds of the starts, m/s, comma-separated (default: {PAPER_SPEEDS})")
@@ -88,17 +100,19 @@ def count_or_folder(text: str):
 
 
 def draw(ap, args, argv) -> int:
-    """The suites of --families drawn for --hopper (the paper's: make_suite's)."""
+    """The suites of --families drawn for --hopper (the paper's: make_suite's and make_map_suite's)."""
     args.speeds, args.heights = args.speeds or PAPER_SPEEDS, args.heights or PAPER_HEIGHTS
-    try:
-        check_families(args.families)
-    except ValueError as error:
-        ap.error(f"--families: {error}")
+    planar = [family for family in args.families if family in TERRAIN_FAMILIES]
+    unknown = [family for family in args.families if family not in TERRAIN_FAMILIES | HEIGHT_MAP_FAMILIES]
+    if unknown:
+        ap.error(f"--families: unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)} (profiles) "
+                 f"or {list(HEIGHT_MAP_FAMILIES)} (height maps)")
     if args.seed is None and not set(args.families) <= set(COMMITTED_SEEDS):
         ap.error(f"--families {sorted(set(args.families) - set(COMMITTED_SEEDS))} have no committed suite; "
                  "give --seed")
-    seeds = {family: COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * k
-             for k, family in enumerate(args.families)}
+    # a planar family's seed is SEED + 1000 k (k among the planar families); every map family draws from SEED
+    seeds = {family: (COMMITTED_SEEDS[family] if args.seed is None else args.seed + 1000 * planar.index(family))
+             if family in TERRAIN_FAMILIES else args.seed for family in args.families}
     names = {family: family if args.seed is None else f"{family}-{seed}" for family, seed in seeds.items()}
     ap.check_outputs(args, [("--out", args.out / f"{name}.json") for name in names.values()])
     try:
@@ -106,19 +120,27 @@ def draw(ap, args, argv) -> int:
     except OSError as error:
         ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
 
+    from planners.formats.map_suite import make_map_suite, save_map_suite
     from planners.formats.suite import save_suite
     from planners.formats.suite_draw import draw_suite
 
     try:   # every suite drawn before any is written: a start outside the bounds is refused first
         suites = [draw_suite(family, seed, args.hopper, n_terrains=args.terrains, speeds=args.speeds,
-                             heights=args.heights, name=names[family]) for family, seed in seeds.items()]
+                             heights=args.heights, name=names[family]) if family in TERRAIN_FAMILIES else
+                  make_map_suite(family, seed, args.terrains, args.speeds, args.heights, hopper=args.hopper,
+                                 name=names[family]) for family, seed in seeds.items()]
     except ValueError as error:
         ap.error(str(error))
     cli.announce(argv)
-    for suite, seed in zip(suites, seeds.values()):
+    for suite, (family, seed) in zip(suites, seeds.items()):
         path = args.out / f"{suite.name}.json"
-        save_suite(suite, path)
-        print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")
+        if family in TERRAIN_FAMILIES:
+            save_suite(suite, path)
+            print(f"wrote {path}: {len(suite.cases)} cases, terrain seeds {seed}..{seed + args.terrains - 1}")
+        else:
+            save_map_suite(suite, path)
+            print(f"wrote {path}: {len(suite.cases)} cases, {family} maps of seeds {seed}..{seed + args.terrains - 1} "
+                  f"at difficulty 0..{1 if args.terrains > 1 else 0}, goal ({suite.goal[0]:g}, {suite.goal[1]:g})")
     return cli.OK
 
 

@@ -3,6 +3,7 @@ of each plan executed by the learned controller on the Drake hybrid simulator, r
 
     python3 examples/plan_and_hop.py --terrain mixed --seed 3 --out out/plan_and_hop.png
     python3 examples/plan_and_hop.py --hopper my_hopper.json --terrain my_ground.csv --html out/replay.html
+    python3 examples/plan_and_hop.py --terrain stones --seed 3 --goal 10,0 --out out/stones.png --html out/stones.html
 
 --hopper takes a hopper file or a hopper folder (examples/train_hopper.py; its planners read the folder's weights)
 and --terrain a terrain family, drawn for the hopper as examples/make_suites.py --hopper draws it, or a terrain
@@ -21,6 +22,13 @@ Writes a figure of the terrain, the body path, the leg at every touchdown and li
 footholds; --html also writes a Meshcat replay of the run (self-contained HTML, the camera following the hopper: the
 executed footholds against the planned ones, the plans' predicted apexes, the failure marked and named). With
 --backend multibody both show the robot (drakeslip/multibody/replay.py).
+
+On a height map (--terrain a height-map family, drawn from --seed at --difficulty, or an .npz or .asc height-map
+file: drakeslip/spatial/heightmap.py) the spatial hopper hops toward the point --goal X,Y on Drake (or on the fast
+step map, --backend fast) in the map loop (planners/spatial_loop.py, verification/map_run.py): on a perfect robot,
+the `step` planner by default. The figure is the map from above and the profile along the path, with the planned
+and the executed footholds and the goal; --html replays the run in 3D.
+
 Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error,
 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
@@ -38,40 +46,69 @@ from planners.closed_loop import executed_plans
 from planners.replanning import EXECUTED_PER_PLAN
 from drakeslip.noise import PROFILES, describe
 from planners.registry import check_label, loop_settings
+from verification import map_run
 
 FIGURE = (".png", ".pdf", ".svg")
+PROFILE_PLANNER, PROFILE_NOISE = "step@robust", "realistic"   # the defaults on a profile (module doc)
 
 
 def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     cli_physics.add_hopper_argument(ap)
-    ap.add_argument("--terrain", type=cli_physics.terrain_or_family(*sorted(TERRAIN_FAMILIES)), default="mixed",
-                    help=f"terrain family ({', '.join(sorted(TERRAIN_FAMILIES))}) or terrain file (a height profile)")
-    ap.add_argument("--seed", type=cli.non_negative_int, default=3, help="terrain seed (of a terrain family)")
-    ap.add_argument("--planner", default="step@robust", help="planner label (a name, a preset or NAME@VARIANT)")
-    ap.add_argument("--noise", type=cli_physics.noise_profile, default="realistic",
-                    help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py)")
+    profiles = sorted(TERRAIN_FAMILIES)
+    ap.add_argument("--terrain", type=map_run.ground_argument(cli_physics.terrain_or_family(*profiles), profiles),
+                    default="mixed", help=f"terrain family ({', '.join(profiles)}), height-map family "
+                                          f"({', '.join(map_run.HEIGHT_MAP_FAMILIES)}: the spatial hopper), terrain "
+                                          "file (a height profile) or height-map file (.npz or .asc)")
+    ap.add_argument("--seed", type=cli.non_negative_int, default=3,
+                    help="terrain seed (of a terrain or height-map family)")
+    ap.add_argument("--difficulty", type=cli.probability, default=None,
+                    help="difficulty in [0, 1] of a height-map family's draw "
+                         f"(default: {map_run.DEFAULT_DIFFICULTY:g})")
+    ap.add_argument("--planner", default=None, help=f"planner label (a name, a preset or NAME@VARIANT) (default: "
+                                                    f"{PROFILE_PLANNER}; {map_run.MAP_PLANNER} on a height map)")
+    ap.add_argument("--noise", type=cli_physics.noise_profile, default=None,
+                    help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py) "
+                         f"(default: {PROFILE_NOISE}; none on a height map, where noise is not applied yet)")
     ap.add_argument("--noise-seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
                          f"period, else {EXECUTED_PER_PLAN}, the paper's)")
     ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
-                    help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground)")
+                    help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground; "
+                         "on a height map -1, made the hopper's)")
     ap.add_argument("--speed", type=cli_physics.physical(SPEED, positive=True), default=None,
                     help=f"initial apex forward speed [m/s] (default: {DEMO_SPEED:g}, made the hopper's)")
     ap.add_argument("--height", type=cli_physics.physical(POSITION, positive=True), default=None,
                     help=f"initial apex height above the ground [m] (default: {DEMO_HEIGHT:g}, made the hopper's)")
-    ap.add_argument("--goal", type=cli_physics.physical(POSITION), default=None,
-                    help=f"goal x [m], on the terrain (default: {DEMO_COURSE:g} m from the start, made the hopper's)")
+    ap.add_argument("--goal", type=map_run.goal_argument, default=None,
+                    help=f"goal x [m], on the terrain (default: {DEMO_COURSE:g} m from the start, made the hopper's); "
+                         "on a height map a point X,Y (default: 10,0, made the hopper's)")
     ap.add_argument("--friction", type=cli_physics.physical(FRICTION), default=None,
                     help="Coulomb friction coefficient at the foot (default: the hopper's, 0.8 for the paper's)")
     ap.add_argument("--out", type=cli.output_file(*FIGURE), default="out/plan_and_hop.png", help="figure to write")
     ap.add_argument("--html", type=cli.output_file(".html"), default=None,
                     help="also write a Meshcat replay of the run (self-contained HTML)")
-    ap.add_argument("--backend", choices=("drake", "multibody"), default="drake",
+    ap.add_argument("--backend", choices=("drake", "multibody", "fast"), default="drake",
                     help="what hops: the SLIP on Drake, or the multibody robot (drakeslip/multibody) in one "
-                         "closed-loop Diagram, planning for the template fitted to it")
+                         "closed-loop Diagram, planning for the template fitted to it; on a height map also the "
+                         "spatial SLIP's fast step map (fast)")
     return ap
+
+
+def profile_arguments(ap: cli.ArgumentParser, args) -> None:
+    """The flags as a profile takes them: its default planner and noise, the goal an x; one line and exit status 2
+    for what is a height map's only."""
+    if args.goal is not None and len(args.goal) == 2:
+        ap.error(f"--goal: a point X,Y is a height map's goal; on a terrain profile the goal is an x, got "
+                 f"{','.join(f'{g:g}' for g in args.goal)}")
+    if args.difficulty is not None:
+        ap.error("--difficulty draws a height-map family; the terrain families of profiles have none")
+    if args.backend == "fast":
+        ap.error("--backend fast hops on height maps only here; on a profile use drake or multibody")
+    args.goal = None if args.goal is None else args.goal[0]
+    args.planner = args.planner or PROFILE_PLANNER
+    args.noise = args.noise or cli_physics.noise_profile(PROFILE_NOISE)
 
 
 def checked_inputs(ap: cli.ArgumentParser, args):
@@ -118,6 +155,9 @@ def report(result: dict, hopper, executed: int, args) -> None:
 def main(argv=None) -> int:
     ap = arguments()
     args = ap.parse_args(argv)
+    if isinstance(args.terrain, map_run.MapGround):
+        return map_run.hop_on_map(ap, args, argv)
+    profile_arguments(ap, args)
     hopper, suite, params, controller, planner = checked_inputs(ap, args)
     cli.announce(argv)
 

@@ -12,6 +12,7 @@ import numpy as np
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.bounds import HORIZON, POSITION
 from drakeslip.params import check_count, check_number
+from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
 from drakeslip.units import HopperUnits, units_of
@@ -81,7 +82,9 @@ class Plan:
     ``message`` saying why no plan was found. ``target_x`` is what the plan aimed to pass: the goal, or the
     edge of the perception window when the goal lies beyond it. ``ode_calls`` counts step-map evaluations.
     ``time_limited``: the wall-clock safety limit stopped the planner (a result that depends on the machine).
-    ``timing``: where ``time_s`` went (``Timing.record``), for the planners that account for it. ``safe_hops``:
+    ``timing``: where ``time_s`` went (``Timing.record``), for the planners that account for it. On a height map
+    ``target_y`` is the target's y, and a sequence holds footholds (x, y, z), leg angles (pitch, roll) and apexes
+    (x, y, z, xdot, ydot). ``safe_hops``:
     where no sequence reaches the target, the hops that keep the hopper alive longest and best placed to plan again
     (the deepest branch its searches grew, for the planners asked for it), None where there are none; a plan with
     them is still ``success=False``, and its message says it holds them."""
@@ -97,6 +100,7 @@ class Plan:
     time_limited: bool = False
     timing: dict | None = None
     safe_hops: FootstepSequence | None = None
+    target_y: float | None = None
 
     @property
     def best(self) -> FootstepSequence | None:
@@ -128,6 +132,7 @@ class Plan:
         return {"success": self.success, "message": self.message, "ode_calls": self.ode_calls,
                 "t_plan_s": self.time_s, "nodes_expanded": self.nodes_expanded, "target_x": self.target_x,
                 "footholds": self.footholds.tolist(), "time_limited": self.time_limited,
+                **({"target_y": self.target_y} if self.target_y is not None else {}),
                 **({"timing": self.timing} if self.timing is not None else {}),
                 **({"safe_footholds": self.safe_hops.footholds.tolist()} if self.safe_hops is not None else {})}
 
@@ -170,7 +175,8 @@ class Problem:
 
 
 class Planner(ABC):
-    """Base class: ``plan(apex, terrain, goal_x, params) -> Plan``. Subclasses implement ``_plan``.
+    """Base class: ``plan(apex, terrain, goal, params) -> Plan``. Subclasses implement ``_plan`` (and ``plan_on_map``
+    where they plan on height maps too).
 
     A planner plans for the hopper ``params`` it is given (default: the paper's). Every setting that depends on the
     hopper is the paper's value in the hopper's units (``drakeslip.units.HopperUnits``: lengths times its length
@@ -187,12 +193,18 @@ class Planner(ABC):
         self.budget = Budget(max_nodes, max_ode_calls, max_time_s)
         self.horizon = None if horizon is None else check_number(horizon, "horizon", positive=True, bound=HORIZON)
 
-    def plan(self, apex, terrain: Terrain, goal_x: float, params: SlipParams | None = None, before=None) -> Plan:
-        """Plan from ``apex`` over ``terrain`` to ``goal_x`` for the hopper ``params``; ``before``: the hop that
-        reached ``apex``, (x, z, xdot) of the apex it started from and its foothold x, which a robot's template with
-        a learned correction predicts the next hop from (None: not known)."""
+    def plan(self, apex, terrain, goal, params: SlipParams | None = None, before=None) -> Plan:
+        """Plan from ``apex`` over ``terrain`` to ``goal`` for the hopper ``params``. On a profile (a ``Terrain``) the
+        apex is (x, z, xdot) and the goal an x; ``before``: the hop that reached ``apex``, (x, z, xdot) of the apex it
+        started from and its foothold x, which a robot's template with a learned correction predicts the next hop
+        from (None: not known). On a height map (``drakeslip.spatial.heightmap.HeightMap``) the apex is (x, y, z,
+        xdot, ydot) and the goal a point (x, y): ``plan_on_map``."""
+        if isinstance(terrain, HeightMap):
+            if before is not None:
+                raise ValueError("before (the hop that reached the apex) is taken on a profile only")
+            return self.plan_on_map(apex, terrain, goal, params)
         t0 = time.perf_counter()
-        problem = self.problem(apex, terrain, goal_x, params, t0, before)
+        problem = self.problem(apex, terrain, goal, params, t0, before)
         if problem.apex.x >= problem.goal_x:
             return Plan(self.name, True, problem.target_x, message="already past the goal",
                         sequences=[FootstepSequence(np.zeros(0), np.zeros(0), np.zeros((0, 3)))])
@@ -227,6 +239,10 @@ class Planner(ABC):
     @abstractmethod
     def _plan(self, problem: Problem) -> Plan:
         ...
+
+    def plan_on_map(self, apex, height_map, goal, params: SlipParams | None = None) -> Plan:
+        """The plan on a height map; a planner that plans on profiles only says so."""
+        raise ValueError(f"the {self.name!r} planner plans on profiles (Terrain) only, not on a height map")
 
     @classmethod
     def files_read(cls, options: dict) -> dict:

@@ -12,3 +12,5 @@ SUBCELL_WEIGHTS = WEIGHTS_DIR / "lstm_subcell.pt"
 EXPERT_WEIGHTS = WEIGHTS_DIR / "lstm_expert.pt"
 # the learned re-ranker of the expert model's most probable first footholds: examples/train_ranker.py
 RANKER_WEIGHTS = WEIGHTS_DIR / "ranker.pt"
+# the spatial footstep model that guides the planners on height maps: examples/train_spatial_model.py
+SPATIAL_WEIGHTS = WEIGHTS_DIR / "spatial_footstep.pt"

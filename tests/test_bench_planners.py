@@ -27,6 +27,19 @@ def test_bench_one_plan(benchmark, controller, label):
                                 footholds=len(plan.footholds), timing=plan.timing)
 
 
+@pytest.mark.parametrize("label", ["heuristic", "step", "lstm", "lstm-guided"])
+def test_bench_one_plan_on_a_height_map(benchmark, controller, label):
+    """Each label that plans on height maps, one plan over a stairs map's 8 m window toward a goal 10 m ahead."""
+    from drakeslip.spatial.families import height_map_family
+
+    start = (-1.0, 0.0, 0.9, 1.5, 0.0)
+    window = height_map_family("stairs")(58999, 0.5).perceived(-1.0, 0.0, (1.0, 0.0), 8.0, 2.0, 3.0)
+    planner = make_planners({label: None}, controller)[label]
+    plan = benchmark.pedantic(planner.plan, args=(start, window, (10.0, 0.0), PARAMS), rounds=5, warmup_rounds=1)
+    benchmark.extra_info.update(success=plan.success, ode_calls=plan.ode_calls, nodes_expanded=plan.nodes_expanded,
+                                footholds=len(plan.footholds), timing=plan.timing)
+
+
 def test_bench_one_training_step(benchmark):
     """One optimizer step of the footstep model on a batch of 256 sequences of 12 steps (the real loss path,
     with the share of sequences fed the model's own distributions)."""

@@ -13,7 +13,7 @@ import pytest
 from drakeslip import SlipParams, TERRAIN_FAMILIES
 from drakeslip.hopper_file import NamedHopper, hopper_for, load_hopper, make_hopper_folder, paper_hopper, save_hopper
 from drakeslip.jobs.files import MANIFEST, record_digest
-from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS
+from planners.checkpoints import EXPERT_WEIGHTS, RANKER_WEIGHTS, SPATIAL_WEIGHTS, SUBCELL_WEIGHTS
 from planners.formats.plan import PlanRecord, load_plan, save_plan
 from planners.formats.suite_draw import draw_suite, hopper_for_suite, one_case
 from planners.registry import files_read, hopper_options, make_planners
@@ -190,8 +190,9 @@ def test_a_hopper_folder_s_weights_replace_the_committed_ones(tmp_path):
     record_digest(tmp_path / "big" / EXPERT_WEIGHTS.name)
     options = hopper_options("lstm", None, folder)
     assert files_read("lstm", options) == {"model": str(tmp_path / "big" / EXPERT_WEIGHTS.name),
-                                           "ranker": str(RANKER_WEIGHTS)}
-    assert files_read("lstm-guided", hopper_options("lstm-guided", None, folder)) == {"model": str(SUBCELL_WEIGHTS)}
+                                           "ranker": str(RANKER_WEIGHTS), "map_model": str(SPATIAL_WEIGHTS)}
+    assert files_read("lstm-guided", hopper_options("lstm-guided", None, folder)) == {
+        "model": str(SUBCELL_WEIGHTS), "map_model": str(SPATIAL_WEIGHTS)}
     trajopt = hopper_options("trajopt", {"seed": "lstm-guided@expert"}, folder)
     assert trajopt["seed_options"] == {"model": str(tmp_path / "big" / EXPERT_WEIGHTS.name)}
     assert hopper_options("lstm", {"ranker": None}, paper_hopper()) == {"ranker": None}

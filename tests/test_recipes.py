@@ -27,6 +27,7 @@ SMALL = {
     "train_expert.py": ["--terrains", "1,1,1", "--apexes", "2", "--epochs", "1,1,1", "--jobs", "1", "--quiet"],
     "train_ranker.py": ["--rounds", "2", "--terrains", "1", "--families", "ditch", "--epochs", "2", "--jobs", "1",
                         "--quiet"],
+    "train_spatial_model.py": ["--cases", "5", "--epochs", "1", "--jobs", "1", "--quiet"],
 }
 APEX, GOAL = (0.0, 0.8, 1.2), 10.0
 
@@ -70,11 +71,22 @@ def lstm_plans(path: Path, **options) -> None:
     plans(LSTMPlanner(path, **options))   # the constructor's first parameter is the footstep model's checkpoint
 
 
+def map_plans(path: Path) -> None:
+    from drakeslip import SlipParams
+    from drakeslip.spatial.heightmap import HeightMap
+    from planners.learned.lstm_guided import LSTMGuidedPlanner
+
+    plan = LSTMGuidedPlanner(map_model=path, grid_fallback=True).plan((0.0, 0.0, 0.9, 1.5, 0.0), HeightMap.flat(),
+                                                                      (5.0, 0.0), SlipParams())
+    assert plan.success, plan.message
+    assert np.all(np.isfinite(plan.footholds)) and plan.footholds.shape[1] == 3
+
+
 def checks() -> dict:
     """{weights file as the doc names it: (the committed file it rebuilds, a check of a file loaded with that file's
     loader: one call with it)}."""
     from drakeslip.controller import DEFAULT_WEIGHTS
-    from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS, SUBCELL_WEIGHTS
+    from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS, SPATIAL_WEIGHTS, SUBCELL_WEIGHTS
     from planners.learned.lstm_guided import LSTMGuidedPlanner
 
     return {"drakeslip/weights/controller.pt": (DEFAULT_WEIGHTS, aims),
@@ -82,7 +94,8 @@ def checks() -> dict:
             "planners/weights/lstm_subcell.pt": (SUBCELL_WEIGHTS, lambda p: plans(LSTMGuidedPlanner(p))),
             "planners/weights/lstm_expert.pt": (EXPERT_WEIGHTS, lambda p: lstm_plans(p, max_steps=1, ranker=None)),
             "planners/weights/ranker.pt": (RANKER_WEIGHTS,
-                                           lambda p: lstm_plans(EXPERT_WEIGHTS, max_steps=1, ranker=p))}
+                                           lambda p: lstm_plans(EXPERT_WEIGHTS, max_steps=1, ranker=p)),
+            "planners/weights/spatial_footstep.pt": (SPATIAL_WEIGHTS, map_plans)}
 
 
 def test_the_doc_has_a_recipe_for_every_committed_weights_file():
@@ -114,7 +127,8 @@ def test_recipe_runs_from_a_fresh_clone_to_a_file_that_loads(name, tmp_path):
     checks()[name][1](path)
 
 
-@pytest.mark.parametrize("script", ["train_controller", "train_lstm", "train_ranker", "train_expert"])
+@pytest.mark.parametrize("script", ["train_controller", "train_lstm", "train_ranker", "train_expert",
+                                    "train_spatial_model"])
 @pytest.mark.parametrize("device", ["cuda:99", "tpu", "meta"])
 def test_a_device_that_is_not_there_is_a_usage_error_before_any_work(script, device, run_script, tmp_path):
     (tmp_path / "data").mkdir()
@@ -123,7 +137,8 @@ def test_a_device_that_is_not_there_is_a_usage_error_before_any_work(script, dev
                "train_lstm": ["--data", tmp_path / "data", "--out", tmp_path / "out" / "m.pt",
                               "--checkpoint", tmp_path / "out" / "ck.pt"],
                "train_ranker": ["--data-dir", tmp_path / "out", "--out", tmp_path / "out" / "r.pt"],
-               "train_expert": ["--work", tmp_path / "out", "--out", tmp_path / "out" / "e.pt"]}
+               "train_expert": ["--work", tmp_path / "out", "--out", tmp_path / "out" / "e.pt"],
+               "train_spatial_model": ["--data", tmp_path / "out", "--out", tmp_path / "out" / "s.pt"]}
     code, out, err = run_script(script, *outputs[script], "--device", device)
     assert code == 2 and err.count("\n") == 1 and "--device" in err and repr(device) in err, err
     assert not (tmp_path / "out").exists()

@@ -157,15 +157,17 @@ def test_unknown_seed_errors_clearly(flat_problem):
 def test_the_seed_model_is_the_checkpoint_an_lstm_seed_reads_unless_its_options_name_one():
     """``TrajoptConfig.seed_model`` (``trajopt_warmstart.py --seed-model``) replaces an LSTM seed's ``model``; a
     seed's own ``model`` option wins; other seeds read no model."""
-    from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
+    from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS, SPATIAL_WEIGHTS
     from planners.registry import files_read
 
     config = {"seed_model": str(PAPER_WEIGHTS)}
-    assert files_read("trajopt", {"seed": "lstm-guided", "config": config}) == {"seed.model": str(PAPER_WEIGHTS)}
+    maps = {"seed.map_model": str(SPATIAL_WEIGHTS)}   # the learned seeds' height-map model, read on maps only
+    assert files_read("trajopt", {"seed": "lstm-guided", "config": config}) == {"seed.model": str(PAPER_WEIGHTS),
+                                                                              **maps}
     assert files_read("trajopt", {"seed": "lstm", "config": config}) == {"seed.model": str(PAPER_WEIGHTS),
-                                                                       "seed.ranker": str(RANKER_WEIGHTS)}
+                                                                       "seed.ranker": str(RANKER_WEIGHTS), **maps}
     own = {"seed": "lstm-guided", "seed_options": {"model": str(EXPERT_WEIGHTS)}, "config": config}
-    assert files_read("trajopt", own) == {"seed.model": str(EXPERT_WEIGHTS)}
+    assert files_read("trajopt", own) == {"seed.model": str(EXPERT_WEIGHTS), **maps}
     assert files_read("trajopt", {"seed": "step", "config": config}) == {}
     assert seed_planner("lstm-guided", None, 24, str(PAPER_WEIGHTS), 0).net.model.config == load_model().config
 

@@ -11,6 +11,11 @@ the suite's friction, and the results record that hopper (``NamedHopper.to_recor
 of other code are never reused: the run says how many cached results it reused and how many of other code it
 ignored, and computes the rest. The results record the same (each planner's "options", "config" and "weights":
 SHA-256 by file) with the code version the keys hold, the libraries, machine and date ("provenance").
+
+A height-map suite (``planners.formats.map_suite.MapSuite``) runs the same way, each case in the loop on its map
+(``planners.spatial_loop.run_map_case``): its key holds the map's digest, its start and its goal instead of a
+terrain, and a task carries a drawn map's record rather than its cells (``task_map``). There is no robot on maps: a
+run that asks for one is refused before any case (``check_map_run``), as is a planner that plans on profiles only.
 """
 from __future__ import annotations
 
@@ -26,11 +31,15 @@ from drakeslip.jobs.executors import prepare
 from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
 
+from planners.base import Planner
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.case_record import check_case_record
+from planners.formats.map_case_record import check_map_case_record
+from planners.formats.map_suite import MapSuite, map_of_task, task_map
 from planners.formats.suite import Suite, suite_from_dict, terrain_record
 from planners.formats.suite_draw import suite_hopper
-from planners.registry import files_read, make_planners, options_for
+from planners.registry import files_read, make_planners, options_for, planner_class, planner_name
+from planners.spatial_loop import MAP_LOOP_BACKENDS, MapCase, run_map_case
 from verification.provenance import code_version, provenance, weights_digests
 from verification.report import summarize
 
@@ -48,7 +57,7 @@ def digest(path) -> str:
     return sha256(path)[:16] if path.is_file() else str(path)
 
 
-def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfig, controller_path,
+def fingerprint(suite: Suite | MapSuite, label: str, options: dict, config: ClosedLoopConfig, controller_path,
                 code: str | None = None) -> str:
     """Identifies a (code, suite and its hopper, planner, options, closed loop, weights) setup, so cached cases are
     reused only for the same setup: changing the code (``code``, default ``code_version()``), the hopper,
@@ -57,16 +66,19 @@ def fingerprint(suite: Suite, label: str, options: dict, config: ClosedLoopConfi
     loop = config.to_dict()
     if config.noise.silent:  # a noiseless run does not depend on the noise's seed: its cached cases stay valid
         del loop["noise"], loop["seed"]
-    blob = json.dumps([code_version() if code is None else code, suite.goal_x, suite.friction,
+    goal = list(suite.goal) if isinstance(suite, MapSuite) else suite.goal_x
+    blob = json.dumps([code_version() if code is None else code, goal, suite.friction,
                        asdict(suite_hopper(suite).params), label, options, loop,
                        digest(controller_weights(controller_path)), files], sort_keys=True, default=str)
     return hashlib.sha256(blob.encode()).hexdigest()[:16]
 
 
-def case_key(setup: str, case) -> str:
+def case_key(setup: str, case, ground=None) -> str:
     """The store key of one case under one setup (a ``fingerprint``, which holds the code version): the setup
-    and the case's own content."""
-    blob = json.dumps([setup, case.id, terrain_record(case.terrain), list(case.apex)], sort_keys=True)
+    and the case's own content; ``ground``: what identifies a map case's map and goal (default: the case's
+    terrain record)."""
+    blob = json.dumps([setup, case.id, terrain_record(case.terrain) if ground is None else ground, list(case.apex)],
+                      sort_keys=True)
     return hashlib.sha256(blob.encode()).hexdigest()[:20]
 
 
@@ -94,7 +106,59 @@ def run_task(label: str, case: dict, goal_x: float, friction: float, config: Clo
     return run_case(_WORKER["planners"][label], _WORKER["controller"], suite.cases[0], goal_x, params, config)
 
 
-def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
+def run_map_task(label: str, case: dict, friction: float, config: ClosedLoopConfig, hopper: dict) -> dict:
+    """One case of a map suite (its id, the map as ``task_map`` carries it, its apex and goal) for one planner
+    label, with the planners ``prepare_worker`` built, for the hopper of ``hopper`` (``SlipParams`` fields)."""
+    params = params_from_fields(hopper, "the task's hopper").with_friction(friction)
+    map_case = MapCase(case["id"], map_of_task(case["map"]), tuple(case["apex"]), tuple(case["goal"]))
+    return run_map_case(_WORKER["planners"][label], map_case, params, config)[0]
+
+
+def check_map_run(configs: dict) -> None:
+    """ValueError in one line unless every planner label of ``configs`` (label -> ClosedLoopConfig) plans on height
+    maps and runs in a loop the map loop runs: a backend of MAP_LOOP_BACKENDS."""
+    profile_only = [label for label in configs
+                    if planner_class(planner_name(label)).plan_on_map is Planner.plan_on_map]
+    if profile_only:
+        raise ValueError(f"planners {', '.join(profile_only)} plan on profiles only, not on height maps")
+    for label, config in configs.items():
+        if config.backend not in MAP_LOOP_BACKENDS:
+            raise ValueError(f"{label}: backend {config.backend!r} does not run height maps; choose one of "
+                             f"{MAP_LOOP_BACKENDS}")
+
+
+def check_map_planners() -> None:
+    """ValueError in one line unless every planner ``prepare_worker`` built plans on a height map with its options (a
+    plan to where the hopper already is costs nothing, and one that refuses maps, or its preset's options there,
+    says so here rather than at its first case)."""
+    from drakeslip.spatial.heightmap import HeightMap
+
+    for label, planner in _WORKER["planners"].items():
+        try:
+            planner.plan((0.0, 0.0, 1.0, 1.0, 0.0), HeightMap.flat(), (0.0, 0.0))
+        except ValueError as error:
+            raise ValueError(f"{label}: {error}") from None
+
+
+def tasks_for(suite: Suite | MapSuite, cases: list, setups: dict, configs: dict) -> tuple:
+    """(the task function, {key: (label, case)}, the tasks) of ``cases`` for every label of ``setups``."""
+    hopper = asdict(suite_hopper(suite).params)
+    if isinstance(suite, MapSuite):
+        source = dict(zip((c.id for c in suite.cases), suite.sources))
+        owner = {case_key(setups[label], c, [source[c.id]["sha256"], list(c.goal)]): (label, c)
+                 for label in setups for c in cases}
+        return run_map_task, owner, [
+            (key, (label, {"id": c.id, "map": task_map(source[c.id], c.terrain), "apex": list(c.apex),
+                           "goal": list(c.goal)}, suite.friction, configs[label], hopper))
+            for key, (label, c) in owner.items()]
+    owner = {case_key(setups[label], c): (label, c) for label in setups for c in cases}
+    return run_task, owner, [
+        (key, (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
+               suite.goal_x, suite.friction, configs[label], hopper))
+        for key, (label, c) in owner.items()]
+
+
+def select(suite: Suite | MapSuite, n_cases: int | None = None, every: int = 1) -> list:
     """Every ``every``-th case of the suite, the first ``n_cases`` of those (all if None)."""
     if isinstance(every, bool) or not isinstance(every, int) or every < 1:
         raise ValueError(f"every must be a positive integer, got {every!r}")
@@ -104,7 +168,7 @@ def select(suite: Suite, n_cases: int | None = None, every: int = 1) -> list:
 
 
 # many parameters: the suite and planners, then keyword options of a public entry point, each with its default
-def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=None, cache_path=None,
+def evaluate(suite: Suite | MapSuite, specs: dict, n_cases: int | None = None, executor=None, cache_path=None,
              controller_path=None, config: ClosedLoopConfig | dict = ClosedLoopConfig(), progress: bool = True,
              every: int = 1) -> dict:
     """Run every planner label of ``specs`` (label -> options, or None) on ``select(suite, n_cases, every)``, in
@@ -117,7 +181,9 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
 
     cases = select(suite, n_cases, every)
     configs = config if isinstance(config, dict) else {label: config for label in specs}
-    if any(c.backend == "multibody" for c in configs.values()):   # the robot is the paper's hopper's only
+    if isinstance(suite, MapSuite):
+        check_map_run({label: configs[label] for label in specs})
+    elif any(c.backend == "multibody" for c in configs.values()):   # the robot is the paper's hopper's only
         from drakeslip.multibody.robot import check_robot_hopper
 
         check_robot_hopper(suite_hopper(suite), f"suite {suite.name!r}")
@@ -129,15 +195,13 @@ def evaluate(suite: Suite, specs: dict, n_cases: int | None = None, executor=Non
     origin = provenance()   # the code version the keys hold is the one the results file names
     setups = {label: fingerprint(suite, label, options, configs[label], controller_path, origin["code_version"])
               for label, options in specs.items()}
-    owner = {case_key(setups[label], c): (label, c) for label in specs for c in cases}
+    task, owner, tasks = tasks_for(suite, cases, setups, configs)
     hopper: NamedHopper = suite_hopper(suite)
-    tasks = [(key, (label, {"id": c.id, "terrain": terrain_record(c.terrain), "apex": c.apex._asdict()},
-                    suite.goal_x, suite.friction, configs[label], asdict(hopper.params)))
-             for key, (label, c) in owner.items()]
-    store = JsonLinesStore(cache_path, check_case_record, origin["code_version"]) if cache_path else None
+    check = check_map_case_record if isinstance(suite, MapSuite) else check_case_record
+    store = JsonLinesStore(cache_path, check, origin["code_version"]) if cache_path else None
     done = {label: {} for label in specs}
     with tqdm(total=len(tasks), desc=suite.name, disable=not progress, unit="case") as bar:
-        for key, result in run(run_task, tasks, store, executor, setup):
+        for key, result in run(task, tasks, store, executor, setup):
             label, case = owner[key]
             done[label][case.id] = result
             bar.update(1)

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 import statistics
+from collections import Counter
 
 Z95 = 1.959963984540054  # the 97.5 % quantile of the standard normal
 
@@ -64,6 +65,19 @@ def table(results: dict) -> str:
             limited.append(f"{name}: {r['time_limited_calls']}")
     if limited:
         rows.append("planning calls stopped by the wall-clock safety limit (machine-dependent): " + ", ".join(limited))
+    return "\n".join(rows)
+
+
+def outcomes(results: dict) -> str:
+    """A line per planner under the table: the hops a case flew (mean; the footholds its plans executed, or the
+    robot's "hops") and the failed cases by failure mode, most frequent first."""
+    rows = []
+    for name, r in results["planners"].items():
+        hops = [c["hops"] if "hops" in c else sum(len(p.get("executed") or ()) for p in c["plans"])
+                for c in r["cases"]]
+        failed = Counter(c["failure"] or "unnamed" for c in r["cases"] if not c["success"])
+        named = ", ".join(f"{mode} {n}" for mode, n in failed.most_common()) or "none"
+        rows.append(f"{name}: {statistics.fmean(hops) if hops else 0.0:.1f} hops a case; failures: {named}")
     return "\n".join(rows)
 
 

@@ -19,8 +19,9 @@ code, its globals bound to them: one compiled function per pairing, cached like 
 ``planners.core.searches`` makes the core's pairings. ``python_best_first`` is the loop as Python, calling the
 expansion's and the admission's own methods. A popped node the admission refutes is closed and counts as an
 expansion with no children; one it skips (superseded) does not count. A popped node whose foothold passes the
-target is a goal, and so is an expanded node with a successful hop past the window's far edge (its sequence goes as
-far as the robot can see), and a child the expansion marks as one (``Children.goal``)."""
+target is a goal (``passes``: on a profile its foothold's x reaches the target's; on a height map it crosses the
+target's line near the target), and so is an expanded node with a successful hop past the window's far edge (its
+sequence goes as far as the robot can see), and a child the expansion marks as one (``Children.goal``)."""
 from __future__ import annotations
 
 import types as pytypes
@@ -31,7 +32,7 @@ import numpy as np
 from drakeslip.compiled import compiled
 from planners.core.clock import N_SLOTS
 from planners.core.tree import (EXHAUSTED, GO_ON, GOALS, NO_GOAL, add_children, budget_stop, heap_pop, heap_push,
-                                new_frontier, new_tree)
+                                new_frontier, new_tree, passes)
 
 # what ``admit`` says of a popped node
 ADMITTED, REFUTED, SKIPPED = 0, 1, 2
@@ -63,10 +64,10 @@ def admit(admission, state, tree, node, slots):
     return admission.admit(state, tree, node, slots)
 
 
-def pop_admitted(admission, state, tree, frontier, goals, n_goals, target_x, slots):
+def pop_admitted(admission, state, tree, frontier, goals, n_goals, target, slots):
     """Pop nodes until one to expand: (that node, -1 when the frontier runs out or enough goals were found,
     FAILED_CHECK when the admission refuted the popped node; the frontier, the number of goals, step-map calls, the
-    admission's state). A popped node past the target is a goal."""
+    admission's state). A popped node that ``passes`` the target is a goal."""
     hops = 0
     while frontier.size > 0:
         i, frontier = heap_pop(frontier)
@@ -76,7 +77,7 @@ def pop_admitted(admission, state, tree, frontier, goals, n_goals, target_x, slo
             continue
         if verdict == REFUTED:
             return FAILED_CHECK, frontier, n_goals, hops, state
-        if tree.foothold[i] >= target_x:
+        if passes(tree, i, target):
             goals[n_goals] = i
             n_goals += 1
             if n_goals >= goals.shape[0]:
@@ -86,10 +87,10 @@ def pop_admitted(admission, state, tree, frontier, goals, n_goals, target_x, slo
     return -1, frontier, n_goals, hops, state
 
 
-def best_first(expansion, admission, root, target_x, limits):
-    """The search from apex ``root`` (x, z, xdot) toward ``target_x`` (see the module doc); a ``Searched``."""
+def best_first(expansion, admission, root, target, limits):
+    """The search from the apex ``root`` toward ``target`` (see the module doc); a ``Searched``."""
     searching, checking = start(expansion, admission, root)   # the expansion's and the admission's states
-    tree = new_tree(root[0], root[1], root[2])
+    tree = new_tree(root)
     # the counters are int64 from the start: a literal 0 passed on to a compiled function compiles a second copy of it
     size, node = np.int64(1), np.int64(0)
     frontier = new_frontier()
@@ -125,7 +126,7 @@ def best_first(expansion, admission, root, target_x, limits):
             if children.more:  # back in the queue behind its own children (the root: behind everything)
                 frontier = heap_push(frontier, tree.cost[node] + limits.reexpand, node)
         node, frontier, n_goals, hops, checking = pop_admitted(admission, checking, tree, frontier, goals, n_goals,
-                                                               target_x, slots)
+                                                               target, slots)
         ode_calls += hops
         if node == FAILED_CHECK:  # closed: counts as an expansion with no children
             expansions += 1
@@ -144,10 +145,14 @@ def bound(function, **names):
                                 function.__closure__)
 
 
-def specialized(start_search, expand_node, admit_node):
-    """The loop compiled with the compiled ``start_search``, ``expand_node`` and ``admit_node`` in its calls."""
-    pop = compiled()(bound(pop_admitted, admit=admit_node))
-    return compiled()(bound(best_first, start=start_search, expand=expand_node, pop_admitted=pop))
+def specialized(start_search, expand_node, admit_node, tree_kind=None):
+    """The loop compiled with the compiled ``start_search``, ``expand_node`` and ``admit_node`` in its calls, on the
+    planar tree (``planners.core.tree``), or on the tree whose ``new_tree``, ``add_children`` and ``passes`` are the
+    entries of ``tree_kind`` (the spatial one: ``planners.core.spatial_tree.SPATIAL_TREE``)."""
+    tree_kind = tree_kind or {}
+    pop = compiled()(bound(pop_admitted, admit=admit_node, **{k: v for k, v in tree_kind.items() if k == "passes"}))
+    return compiled()(bound(best_first, start=start_search, expand=expand_node, pop_admitted=pop,
+                            **{k: v for k, v in tree_kind.items() if k != "passes"}))
 
 
 python_best_first = best_first   # the loop as Python: its calls of start, expand and admit are the Python ones

@@ -9,6 +9,9 @@ from planners.core.grid import NO_STATE, GridExpansion, expand_grid
 from planners.core.pruned import PrunedExpansion, expand_pruned, merge_admit, start_stage
 from planners.core.robust import robust_admit, start_flights
 from planners.core.sampled import SampledExpansion, expand_sampled, new_state
+from planners.core.spatial_grid import SpatialExpansion, admit_every, expand_spatial_grid, start_spatial
+from planners.core.spatial_sampled import SpatialSampledExpansion, expand_spatial_sampled, start_sampled_spatial
+from planners.core.spatial_tree import SPATIAL_TREE
 
 
 @compiled(inline="always")
@@ -26,7 +29,10 @@ def start_sampled(expansion, admission, root):
 GRID_SEARCH = specialized(start_grid, expand_grid, robust_admit)
 SAMPLED_SEARCH = specialized(start_sampled, expand_sampled, robust_admit)
 PRUNED_SEARCH = specialized(start_stage, expand_pruned, merge_admit)
-SEARCHES = {GridExpansion: GRID_SEARCH, SampledExpansion: SAMPLED_SEARCH, PrunedExpansion: PRUNED_SEARCH}
+SPATIAL_GRID_SEARCH = specialized(start_spatial, expand_spatial_grid, admit_every, SPATIAL_TREE)
+SPATIAL_SAMPLED_SEARCH = specialized(start_sampled_spatial, expand_spatial_sampled, admit_every, SPATIAL_TREE)
+SEARCHES = {GridExpansion: GRID_SEARCH, SampledExpansion: SAMPLED_SEARCH, PrunedExpansion: PRUNED_SEARCH,
+            SpatialExpansion: SPATIAL_GRID_SEARCH, SpatialSampledExpansion: SPATIAL_SAMPLED_SEARCH}
 
 
 def compiled_search(expansion):

@@ -63,13 +63,19 @@ def tree_arrays(capacity):
 
 
 @compiled()
-def new_tree(root_x, root_z, root_xdot):
-    """A tree holding the root alone (no parent, angle or foothold; cost inf, depth 0), with room for CAPACITY
-    nodes."""
+def new_tree(root):
+    """A tree holding the root apex ``root`` (x, z, xdot) alone (no parent, angle or foothold; cost inf, depth 0), with
+    room for CAPACITY nodes."""
     tree = tree_arrays(np.int64(CAPACITY))
     tree.parent[0], tree.angle[0], tree.foothold[0], tree.cost[0], tree.depth[0] = -1, math.nan, math.nan, math.inf, 0
-    tree.apex[0, 0], tree.apex[0, 1], tree.apex[0, 2] = root_x, root_z, root_xdot
+    tree.apex[0, 0], tree.apex[0, 1], tree.apex[0, 2] = root[0], root[1], root[2]
     return tree
+
+
+@compiled(inline="always")
+def passes(tree, node, target_x):
+    """Whether ``node``'s foothold passes the target: the search's goal test."""
+    return tree.foothold[node] >= target_x
 
 
 @compiled()

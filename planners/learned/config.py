@@ -17,3 +17,16 @@ class ModelConfig:
     @property
     def n_bins(self) -> int:
         return self.n_cells * self.subcells
+
+
+@dataclass(frozen=True)
+class SpatialModelConfig:
+    """The spatial footstep model (planners/learned/spatial_model.py): its patch (cells per side and their size in the
+    paper's hopper's metres; the planner uses them in its hopper's lengths), the past footholds it reads, the
+    convolutions' channels and the history LSTM's units."""
+
+    size: int = 12
+    cell: float = 0.1
+    history: int = 3
+    channels: int = 6
+    hidden: int = 16

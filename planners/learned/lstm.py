@@ -10,10 +10,11 @@ from drakeslip.state import as_apex
 from drakeslip.units import PAPER, units_of
 
 from planners.base import FootstepSequence, Plan, Planner, Problem
-from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS
+from planners.checkpoints import EXPERT_WEIGHTS, PAPER_WEIGHTS, RANKER_WEIGHTS, SPATIAL_WEIGHTS
 from planners.learned.inference import PlanningFootstepModel, softmax
 from planners.learned.inputs import WindowEncoding, encode_window
 from planners.learned.model import FootstepModel, load_checkpoint
+from planners.learned.spatial_guided import plan_on_map
 from planners.learned.ranker import FootholdRanker, candidate_features, log_probability, top_candidates
 from planners.search.step_space import GRID_SPACING
 from planners.search.tree import EDGE_MARGIN, clear_of_edges
@@ -90,10 +91,13 @@ class LSTMPlanner(Planner):
     name = "lstm"
 
     # many parameters: the planner's options, each set by name in a label's preset (planners.registry.PRESETS)
+    # many parameters: the planner's options, each set by name in a label's preset (planners.registry.PRESETS)
     def __init__(self, model=EXPERT_WEIGHTS, max_steps: int = 1, mask_ditches: bool = True,
                  controller: StepLengthController | None = None, edge_margin: float | None = None,
-                 feedback: str = "distribution", ranker=RANKER_WEIGHTS, top_k: int = 5, **budget):
+                 feedback: str = "distribution", ranker=RANKER_WEIGHTS, top_k: int = 5, map_model=SPATIAL_WEIGHTS,
+                 **budget):
         super().__init__(**budget)
+        self.map_model = map_model
         if feedback not in ("distribution", "mode"):
             raise ValueError(f"feedback must be 'distribution' or 'mode', got {feedback!r}")
         self.feedback = feedback
@@ -108,6 +112,11 @@ class LSTMPlanner(Planner):
             raise ValueError(f"top_k must be a positive integer, got {top_k!r}")
         self.top_k = top_k
         self.ranker = None if ranker is None else FootholdRanker(ranker)
+
+    def plan_on_map(self, apex, height_map, goal, params=None) -> Plan:
+        """The model's most probable cell at every node, flown on the spatial step map, with little backtracking
+        (``planners.learned.spatial_guided``; ``map_model`` the spatial footstep model)."""
+        return plan_on_map(self, apex, height_map, goal, params, (1,), False, self.budget)
 
     def distributions(self, apex, terrain: Terrain, n: int, temperature: float = 1.0, params=None):
         """Per-step probabilities over the window's bins (its cells, or their parts for a sub-cell model),

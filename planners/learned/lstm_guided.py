@@ -11,12 +11,14 @@ from drakeslip import ApexState, Terrain
 from drakeslip.compiled import compiling
 from drakeslip.terrain import DITCH_HEIGHT
 
-from planners.checkpoints import SUBCELL_WEIGHTS
+from planners.base import Plan
+from planners.checkpoints import SPATIAL_WEIGHTS, SUBCELL_WEIGHTS
 from planners.core.grid import children_of
 from planners.core.sampled import SampledExpansion, WindowSettings, weighted_order
 from planners.learned.inference import softmax
 from planners.learned.inputs import SAME_CELL, encode_window, model_cell
 from planners.learned.lstm import FootstepDistribution, load_model
+from planners.learned.spatial_guided import plan_on_map
 from planners.search.robust import Robustness
 from planners.search.step_space import StepSpacePlanner, attempt_name
 from planners.search.loop import search
@@ -25,6 +27,10 @@ from planners.search.tree import CostWeights
 # Node budget of each search attempt: a node costs several times a Step-space node (an LSTM step besides the
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
 MAX_NODES = 500
+# On a height map: the spatial model's cells flown a node, in each search in turn (4 cells are 16 candidates: one
+# node in a few hundred has its viable footholds outside the model's 4 most probable cells, and the search that
+# widens to 8 finds them)
+MAP_CELLS = (4, 8)
 _COMPILED: list = []  # holds True once this process has compiled (or loaded) the sampled core
 
 
@@ -99,7 +105,11 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     The defaults are the best shipped setting: the sub-cell model (2.5 cm bins, ``SUBCELL_WEIGHTS``), restarted
     from each node's own apex (``conditioning="apex"``), its samples simulated one at a time in their drawn order
     (``lazy``). The paper's search, all B samples at once with the model fed the root-to-node path, is the preset
-    ``lstm-guided@paper``."""
+    ``lstm-guided@paper``.
+
+    On a height map (``plan_on_map``) the search is guided by the spatial footstep model (``map_model``, a CNN over
+    the patch ahead and an LSTM over the past footholds): each node flies the points of its ``map_cells`` most
+    probable cells instead of Step-space's grid."""
 
     name = "lstm-guided"
 
@@ -107,8 +117,13 @@ class LSTMGuidedPlanner(StepSpacePlanner):
     def __init__(self, model=SUBCELL_WEIGHTS, branching: int = 3, fallback: tuple = (5,),
                  temperature: float = 1.0, mask_ditches: bool = True, seed: int = 0, lazy: bool = True,
                  conditioning: str = "apex", cost_weights: CostWeights | tuple = CostWeights(),
-                 max_nodes: int = MAX_NODES, floor: float = 0.0, grid_fallback: bool = False, **options):
+                 max_nodes: int = MAX_NODES, floor: float = 0.0, grid_fallback: bool = False,
+                 map_model=SPATIAL_WEIGHTS, map_cells: tuple = MAP_CELLS, **options):
         super().__init__(cost_weights=cost_weights, max_nodes=max_nodes, **options)
+        self.map_model = map_model
+        self.map_cells = tuple(map_cells)
+        if not self.map_cells or not all(isinstance(c, int) and c >= 1 for c in self.map_cells):
+            raise ValueError(f"map_cells must be positive integers, got {map_cells!r}")
         for b in (branching, *fallback):
             if not (isinstance(b, int) and b >= 1):
                 raise ValueError(f"branching factors must be positive integers, got {b!r}")
@@ -130,6 +145,12 @@ class LSTMGuidedPlanner(StepSpacePlanner):
         self.core_model = self.net.model.arrays if self.conditioning == "apex" else None
         if self.core_model is not None and self.step_map == "fast":
             warm_up_sampled(self)
+
+    def plan_on_map(self, apex, height_map, goal, params=None) -> Plan:
+        """The guided search on a height map (``planners.learned.spatial_guided``): the spatial footstep model's
+        (``map_model``) most probable cells a node, as many as each entry of ``map_cells`` in turn, then Step-space's
+        grid where ``grid_fallback``; with a robustness, at each of its levels (``planners.search.spatial_step``)."""
+        return plan_on_map(self, apex, height_map, goal, params, self.map_cells, self.grid_fallback, self.budget)
 
     def core_window(self, problem):
         """The compiled core's window settings for ``problem``, None where the search runs in numpy (a terrain

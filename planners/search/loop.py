@@ -11,15 +11,17 @@ from planners.core.tree import NO_LIMIT
 from planners.search.tree import REEXPAND_PENALTY, STOPS, SearchResult, SearchTree
 
 
-def search(problem: Problem, expansion, admission, n_sequences: int, budget: Budget) -> SearchResult:
+def search(problem: Problem, expansion, admission, n_sequences: int, budget: Budget, target=None) -> SearchResult:
     """The best-first search of ``problem`` with ``expansion`` and ``admission``: compiled for an expansion that is a
     compiled record, as Python for one that is a Python object (its admission then a record or a Python object); its
-    time is added to ``problem.timing``."""
+    time is added to ``problem.timing``. ``target``: what a goal passes (``planners.core.best_first``), the problem's
+    ``target_x`` when None; a search on a height map gives its ``SpatialTarget``."""
     limits = Limits(int(n_sequences), int(budget.max_nodes),
                     NO_LIMIT if budget.max_ode_calls is None else int(budget.max_ode_calls), float(problem.deadline),
                     REEXPAND_PENALTY * problem.units.length)
     loop = compiled_search(expansion) if type(expansion) in SEARCHES else python_best_first
-    found = loop(expansion, admission, np.array(problem.apex, dtype=np.float64), float(problem.target_x), limits)
+    target = float(problem.target_x) if target is None else target
+    found = loop(expansion, admission, np.array(problem.apex, dtype=np.float64), target, limits)
     problem.timing.add(found.slots)
     return SearchResult(tree_of(problem.apex, found), int(found.ode_calls), int(found.expansions), STOPS[found.stop])
 

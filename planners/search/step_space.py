@@ -23,6 +23,8 @@ from planners.search.pruned import pruned_search
 from planners.core.robust import no_check
 from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
+from planners.search.spatial_problem import reached, spatial_problem
+from planners.search.spatial_step import SpatialStepSettings, already_there, plan_step_space
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Attempts, CostWeights, SearchResult)
 
@@ -119,6 +121,27 @@ class StepSpacePlanner(Planner):
         self.edge_margin = None if edge_margin is None else float(edge_margin)
         if step_map == "fast":   # the core holds its own step map; the Python search simulates on Drake
             warm_up_core()
+
+    def plan_on_map(self, apex, height_map, goal, params=None) -> Plan:
+        """Step-space on a height map (``planners.search.spatial_step``) with this planner's grid, tolerance, margins,
+        cost weights, budget and robustness (its noise and sigmas: particles that must survive each hop); its
+        2D-only options (the Drake step map, safe hops) are refused in one line."""
+        t0 = time.perf_counter()
+        unsupported = [name for name, used in (("step_map='drake'", self.step_map != "fast"),
+                                               ("safe_hops", self.safe_hops)) if used]
+        if unsupported:
+            raise ValueError(f"the {self.name!r} planner plans on a height map without {', '.join(unsupported)}")
+        problem = spatial_problem(apex, height_map, goal, params, self.horizon, t0, self.budget.max_time_s)
+        if reached(problem):
+            return already_there(problem, self.name)
+        settings = SpatialStepSettings(self.spacing, self.fallback_spacing, self.tolerance, self.edge_margin,
+                                       self.min_speed, self.cost_weights, self.n_sequences,
+                                       robustness=self.robustness, fallback_nominal=self.fallback_nominal)
+        plan = plan_step_space(problem, settings, self.budget, self.name)
+        plan.time_s = time.perf_counter() - t0
+        problem.timing.total = plan.time_s
+        plan.timing = problem.timing.record()
+        return plan
 
     def spacings(self, units: HopperUnits) -> tuple:
         """The grid spacings [m] a search tries in turn for a hopper of ``units``: ``spacing``, then each

@@ -55,7 +55,8 @@ class CostWeights:
 class SearchTree:
     """Every node the search created. Node 0 is the root (the start apex, no foothold). For node i > 0:
     ``parent[i]``, the leg ``angle[i]`` applied at the parent's apex, the ``foothold[i]`` it lands on and the
-    ``apex[i]`` it reaches. ``goals`` are the nodes that passed the target, in the order they were popped.
+    ``apex[i]`` it reaches (on a height map: the leg's (pitch, roll), the foothold's (x, y, z), the apex's
+    (x, y, z, xdot, ydot)). ``goals`` are the nodes that passed the target, in the order they were popped.
     Any root-to-leaf path is a dynamically feasible footstep sequence (the dataset generator uses them all).
     """
 
@@ -89,7 +90,7 @@ class SearchTree:
         nodes = self.branch(node)
         return FootstepSequence(np.array([self.foothold[i] for i in nodes]),
                                 np.array([self.angle[i] for i in nodes]),
-                                np.array([self.apex[i] for i in nodes]).reshape(-1, 3))
+                                np.array([self.apex[i] for i in nodes]).reshape(-1, len(self.root_apex)))
 
     def leaves(self) -> list[int]:
         """Nodes with no children (the frontier and the dead ends), root excluded."""

@@ -26,7 +26,7 @@ def cold_footholds(problem: Problem, extra_hops: int = 0) -> np.ndarray:
     then equal steps (about the neutral gait's stride at the start speed) to COLD_OVERSHOOT (in the hopper's
     lengths) past the target, on whatever segments those land. ``extra_hops`` more (or fewer, down to two
     footholds) equal steps cover the same distance."""
-    from planners.search.heuristic import interpolate, neutral_gait
+    from planners.search.gait import interpolate, neutral_gait
 
     apex, terrain = problem.apex, problem.terrain
     offsets, advances = neutral_gait(problem.params.with_friction(1.0))

@@ -1,0 +1,96 @@
+"""The search tree on a height map: ``planners.core.tree``'s arrays with a spatial node, for the one best-first loop.
+
+Node i > 0 is the child of ``parent[i]`` by the leg (pitch, roll) ``angle[i]`` that lands on ``foothold[i]`` (x, y,
+z) and reaches ``apex[i]`` (x, y, z, xdot, ydot). The frontier, the heap and the budget are the planar tree's; the
+loop is bound to ``SPATIAL_TREE``'s functions (``planners.core.best_first.specialized``)."""
+from __future__ import annotations
+
+import math
+from collections import namedtuple
+
+import numpy as np
+
+from drakeslip.compiled import compiled
+from planners.core.tree import CAPACITY, Tree, copy_head, heap_push
+
+# Where a search on a height map goes: a goal's foothold lies past the line through (x, y) across the ``heading``
+# (hx, hy) (a unit vector) and within ``half_width`` of (x, y) along it
+SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width"])
+# the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
+SpatialScoring = namedtuple("SpatialScoring", ["target_x", "target_y", "progress", "speed", "isolation"])
+ANGLES, FOOTHOLD, APEX = 2, 3, 5   # the widths of a node's leg command, foothold and apex
+
+
+@compiled()
+def tree_arrays(capacity):
+    """A spatial tree with room for ``capacity`` nodes, none set."""
+    return Tree(np.empty(capacity, np.int64), np.empty((capacity, ANGLES)), np.empty((capacity, FOOTHOLD)),
+                np.empty((capacity, APEX)), np.empty(capacity), np.empty(capacity, np.int64))
+
+
+@compiled()
+def new_tree(root):
+    """A tree holding the root apex ``root`` (x, y, z, xdot, ydot) alone, with room for CAPACITY nodes."""
+    tree = tree_arrays(np.int64(CAPACITY))
+    tree.parent[0], tree.cost[0], tree.depth[0] = -1, math.inf, 0
+    for k in range(ANGLES):
+        tree.angle[0, k] = math.nan
+    for k in range(FOOTHOLD):
+        tree.foothold[0, k] = math.nan
+    for k in range(APEX):
+        tree.apex[0, k] = root[k]
+    return tree
+
+
+@compiled(inline="always")
+def reserve(tree, size, extra):
+    """``tree`` with room for ``extra`` nodes after its first ``size``."""
+    if size + extra <= tree.parent.shape[0]:
+        return tree
+    larger = tree_arrays(max(2 * tree.parent.shape[0], size + extra))
+    copy_head(larger.parent, tree.parent, size)
+    copy_head(larger.angle, tree.angle, size)
+    copy_head(larger.foothold, tree.foothold, size)
+    copy_head(larger.apex, tree.apex, size)
+    copy_head(larger.cost, tree.cost, size)
+    copy_head(larger.depth, tree.depth, size)
+    return larger
+
+
+@compiled()
+def add_children(tree, size, node, children, frontier):
+    """Add a node's children to the tree, each with its queue key, and push them on the frontier."""
+    k = children.angles.shape[0]
+    tree = reserve(tree, size, k)
+    for j in range(k):
+        i = size + j
+        tree.parent[i], tree.cost[i], tree.depth[i] = node, children.keys[j], tree.depth[node] + 1
+        for c in range(ANGLES):
+            tree.angle[i, c] = children.angles[j, c]
+        for c in range(FOOTHOLD):
+            tree.foothold[i, c] = children.footholds[j, c]
+        for c in range(APEX):
+            tree.apex[i, c] = children.apexes[j, c]
+        frontier = heap_push(frontier, children.keys[j], i)
+    return tree, size + k, frontier
+
+
+@compiled(inline="always")
+def passes(tree, node, target):
+    """Whether ``node``'s foothold crossed the target's line within its half width: the search's goal test."""
+    dx, dy = tree.foothold[node, 0] - target.x, tree.foothold[node, 1] - target.y
+    return dx * target.hx + dy * target.hy >= 0.0 and abs(dy * target.hx - dx * target.hy) <= target.half_width
+
+
+@compiled()
+def child_costs(footholds, apexes, isolation, scoring):
+    """The queue key of each child: progress * |foothold - target| + speed * |horizontal velocity| + isolation * D."""
+    keys = np.empty(footholds.shape[0])
+    for j in range(footholds.shape[0]):
+        distance = math.sqrt((footholds[j, 0] - scoring.target_x) ** 2 + (footholds[j, 1] - scoring.target_y) ** 2)
+        speed = math.sqrt(apexes[j, 3] ** 2 + apexes[j, 4] ** 2)
+        keys[j] = scoring.progress * distance + scoring.speed * speed + scoring.isolation * isolation[j]
+    return keys
+
+
+SPATIAL_TREE = {"new_tree": new_tree, "add_children": add_children, "passes": passes}

@@ -1,0 +1,82 @@
+"""The learned planners on a height map: the spatial footstep model (planners/learned/spatial_model.py) ranks the
+patch ahead of each node and the search flies the points of its most probable cells (``planners.core.spatial_sampled``)
+instead of Step-space's whole grid. ``LSTMGuidedPlanner.plan_on_map`` searches with ``branching`` cells a node, then
+each ``fallback`` width, then (``grid_fallback``) Step-space's grid; ``LSTMPlanner.plan_on_map`` follows the model's
+most probable cell (one cell a node, little backtracking): the paper's LSTM planner on a map."""
+from __future__ import annotations
+
+import functools
+import time
+from pathlib import Path
+
+import numpy as np
+
+from planners.base import Budget, Plan
+from planners.checkpoints import SPATIAL_WEIGHTS
+from planners.core.spatial_model import view_of
+from planners.core.spatial_sampled import SpatialSampledExpansion
+from planners.search.spatial_problem import SpatialProblem, reached, spatial_problem
+from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings, already_there,
+                                          grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
+
+
+SPLIT = 2   # the points a cell's side is split into: its 10 cm into 5 cm, Step-space's grid
+
+
+@functools.lru_cache(maxsize=4)
+def spatial_model(path: str):
+    """(the model's config, its arrays for the compiled pass) of a weights file, loaded and checked once."""
+    from planners.learned.spatial_model import load_spatial_checkpoint
+
+    model, _ = load_spatial_checkpoint(path)
+    return model.config, model.arrays()
+
+
+# many parameters: the problem, the search's settings, the model, and the cells, points and particles of a node
+def sampled_expansion(problem: SpatialProblem, settings: SpatialStepSettings, model_path: str, width: int,
+                      split: int, particles=NOMINAL) -> SpatialSampledExpansion:
+    config, arrays = spatial_model(str(model_path))
+    units = problem.units
+    grid = grid_of(problem, settings, units.length_or(settings.spacing, SPACING))
+    return SpatialSampledExpansion(grid, problem.height_map.ground(), problem.params.as_array(),
+                                   scoring_of(problem, settings.cost_weights), view_of(config, problem.params),
+                                   arrays, float(problem.target[0]), float(problem.target[1]), np.int64(width),
+                                   np.int64(split), particles)
+
+
+# many parameters: the planner's options that apply on a map, and its budget and name
+def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_path, widths, grid_fallback: bool,
+                budget: Budget, name: str) -> Plan:
+    """The guided searches of ``widths`` cells a node in turn, each cell's SPLIT x SPLIT points, at each robustness
+    level of ``settings`` (``planners.search.spatial_step.levels``), then Step-space's grid where ``grid_fallback``."""
+    warm_up()
+    searches = [(f"{label}{w} model cells a node",
+                 sampled_expansion(problem, settings, model_path, w, SPLIT, particles))
+                for label, particles in levels(settings, problem.params) for w in widths]
+    if grid_fallback:   # Step-space's grids in turn, nominal, as its own last round
+        for spacing in grid_spacings(problem.units, settings):
+            searches.append((f"{spacing * 100:g} cm grid", SpatialExpansion(
+                grid_of(problem, settings, spacing), problem.height_map.ground(), problem.params.as_array(),
+                scoring_of(problem, settings.cost_weights), NOMINAL)))
+    return run_searches(problem, searches, settings, budget, name)[0]
+
+
+# many parameters: Planner.plan_on_map's inputs and the planner's options that apply on a map
+def plan_on_map(planner, apex, height_map, goal, params, widths, grid_fallback: bool, budget: Budget) -> Plan:
+    """A learned planner's plan on a height map (module doc), timed as ``Planner.plan`` times a plan."""
+    t0 = time.perf_counter()
+    model_path = getattr(planner, "map_model", None) or SPATIAL_WEIGHTS
+    if not Path(model_path).is_file():
+        raise ValueError(f"the {planner.name!r} planner's map model {model_path} does not exist")
+    problem = spatial_problem(apex, height_map, goal, params, planner.horizon, t0, budget.max_time_s)
+    if reached(problem):
+        return already_there(problem, planner.name)
+    settings = SpatialStepSettings(getattr(planner, "spacing", None), None, getattr(planner, "tolerance", None),
+                                   getattr(planner, "edge_margin", None), getattr(planner, "min_speed", None),
+                                   robustness=getattr(planner, "robustness", None),
+                                   fallback_nominal=getattr(planner, "fallback_nominal", True))
+    plan = plan_guided(problem, settings, model_path, widths, grid_fallback, budget, planner.name)
+    plan.time_s = time.perf_counter() - t0
+    problem.timing.total = plan.time_s
+    plan.timing = problem.timing.record()
+    return plan

@@ -1,0 +1,181 @@
+"""The receding-horizon loop on a height map (``planners.closed_loop`` in the plane): perceive the window ahead,
+plan, fly the plan's first footholds, replan from the apex reached; until a foothold passes the goal, a failure, no
+plan, or the hop cap.
+
+On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.simulation.ApexPolicy``)
+plans when the footholds it was given run out and aims the leg at the next one with the spatial controller, so the
+run is one continuous trajectory (a replay draws it whole). On the fast backend each hop is one compiled step. The
+loop's settings are ``planners.replanning.ClosedLoopConfig``'s.
+
+Under a noise profile (``drakeslip.noise``, drawn in three dimensions by ``drakeslip.spatial.noise``) the planner
+and the controller are told a noisy apex and see a noisy perception window (filtered by the robot's ``map_filter``),
+the controller aims from the apex told, the leg reaches the commanded angles plus their errors, and the hops run on
+the executed hopper (the model with the case's spring, mass and friction errors) on the true map. As in the plane,
+every draw comes from one generator per case (``case_seed``): first the executed hopper, then per planning call the
+apex errors of its hops, their leg-angle errors and the sensed window. The robot aims GOAL_SIGMAS standard deviations
+of x past the goal, believes it is past when a foothold it aims at passes that, and succeeds when the foothold it
+reached passes the goal.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from drakeslip.params import SlipParams
+from drakeslip.spatial.controller import leg_angles_for
+from drakeslip.spatial.heightmap import HeightMap
+from drakeslip.spatial.noise import angle_errors3d, apex_errors3d, perceived_map
+from drakeslip.spatial.simulation import simulate3d
+from drakeslip.spatial.stepmap import step3d
+from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
+from drakeslip.units import units_of
+
+from planners.replanning import GOAL_SIGMAS, ClosedLoopConfig, case_result, case_seed, drawn_hopper
+from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE
+
+MAP_LOOP_BACKENDS = ("drake", "fast")
+
+
+@dataclass(frozen=True)
+class MapCase:
+    """A case on a height map: its id, the map, the start apex (x, y, z, xdot, ydot) and the goal (x, y)."""
+
+    id: str
+    terrain: HeightMap
+    apex: tuple
+    goal: tuple
+
+
+def passes_goal(foothold, start, goal, radius: float) -> bool:
+    """Whether ``foothold`` crossed the goal's line (across the way from ``start`` to the goal) within ``radius`` of
+    the goal: the case's success, the test a plan's last foothold passes."""
+    hx, hy = goal[0] - start[0], goal[1] - start[1]
+    norm = math.hypot(hx, hy) or 1.0
+    hx, hy = hx / norm, hy / norm
+    dx, dy = foothold[0] - goal[0], foothold[1] - goal[1]
+    return dx * hx + dy * hy >= 0 and abs(dy * hx - dx * hy) <= radius
+
+
+def past_goal(start, goal, margin: float) -> tuple:
+    """The point ``margin`` [m] past ``goal`` on the way from ``start`` to it (the goal itself for no margin)."""
+    if margin == 0:
+        return goal
+    hx, hy = goal[0] - start[0], goal[1] - start[1]
+    norm = math.hypot(hx, hy) or 1.0
+    return goal[0] + margin * hx / norm, goal[1] + margin * hy / norm
+
+
+class MapLoop:
+    """The loop's state for one case: the plans so far, the footholds left to fly, the outcome; under noise, the
+    case's generator, the executed hopper and the errors drawn for the current plan's hops."""
+
+    def __init__(self, planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig):
+        if config.backend not in MAP_LOOP_BACKENDS:
+            raise ValueError(f"backend {config.backend!r} does not run height maps; choose one of {MAP_LOOP_BACKENDS}")
+        self.planner, self.case, self.params, self.config = planner, case, params, config
+        units = units_of(params)
+        self.ahead, self.behind = WINDOW_AHEAD * units.length, WINDOW_BEHIND * units.length
+        self.aside, self.radius = WINDOW_ASIDE * units.length, GOAL_RADIUS * units.length
+        self.noise = config.noise.for_hopper(params)
+        self.rng = np.random.default_rng(case_seed(config.seed, case.id))
+        self.executed = drawn_hopper(self.noise, params, self.rng)   # the generator's first draw, as in the plane
+        # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
+        self.aim = past_goal(case.apex, case.goal, GOAL_SIGMAS * self.noise.apex[0])
+        self.plans, self.queue, self.failure, self.done = [], [], None, False
+        self.hops, self.flown = 0, 0   # hops in all, and of the current plan
+        self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
+
+    def told(self, apex, hop: int) -> tuple:
+        """The apex the robot is told at the current plan's ``hop``: the true one plus its drawn error."""
+        if self.apex_errors is None:
+            return tuple(apex)
+        return tuple(float(v) for v in np.asarray(apex, dtype=np.float64) + self.apex_errors[hop])
+
+    def command(self, apex, hop: int):
+        """The leg command at ``apex``: plan when the queue is empty, then aim at the next foothold from the apex told;
+        under noise, the angles the leg reaches. None ends the run (goal passed, no plan, hop cap)."""
+        if self.done or self.failure is not None:
+            return None
+        if self.hops >= self.config.max_hops:
+            self.failure = "HOP_CAP"
+            return None
+        if not self.queue and not self.replan(apex):
+            return None
+        target = self.queue.pop(0)
+        self.plans[-1]["executed"].append([float(v) for v in target])
+        self.hops, self.flown = self.hops + 1, self.flown + 1
+        if passes_goal(target, self.case.apex, self.aim, self.radius):
+            self.done = True   # this hop lands past the goal: the run ends at the apex after it
+        try:
+            angles = leg_angles_for(self.told(apex, self.flown - 1), target, self.params)
+        except ValueError:
+            self.failure = "UNREACHABLE"
+            return None
+        if self.angle_errors is None:
+            return angles
+        return tuple(float(a + e) for a, e in zip(angles, self.angle_errors[self.flown - 1]))
+
+    def replan(self, apex) -> bool:
+        """Plan from ``apex`` (told with this plan's first error) on the window the robot senses; False: no plan."""
+        k, self.flown = self.config.executed_per_plan, 0
+        if not self.noise.silent:   # the draws' order: the apex errors of the k hops, their angle errors, the map
+            self.apex_errors = apex_errors3d(self.noise, self.rng, k)
+            self.angle_errors = angle_errors3d(self.noise, self.rng, k)
+        seen, goal = self.told(apex, 0), self.aim
+        window = self.case.terrain.perceived(seen[0], seen[1], (goal[0] - seen[0], goal[1] - seen[1]), self.ahead,
+                                             self.aside, self.behind)
+        if not self.noise.silent:
+            window = perceived_map(self.noise, window, self.rng, self.config.map_filter)
+        try:
+            plan = self.planner.plan(tuple(float(v) for v in seen), window, goal, self.params)
+            record = plan.summary()
+        except ValueError as refusal:   # a noisy apex the planner cannot start from (below the ground it sees)
+            if self.noise.silent:
+                raise
+            plan, record = None, {"success": False, "message": str(refusal), "ode_calls": 0, "t_plan_s": 0.0,
+                                  "nodes_expanded": 0, "target_x": goal[0], "target_y": goal[1], "footholds": []}
+        record.update(apex=[float(v) for v in apex], executed=[])
+        if not self.noise.silent:
+            record["seen_apex"] = list(seen)
+        self.plans.append(record)
+        if plan is None or not plan.success or len(plan.footholds) == 0:
+            self.failure = "NO_PLAN"
+            return False
+        self.queue = [tuple(f) for f in plan.footholds[:self.config.executed_per_plan]]
+        return True
+
+
+def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig = ClosedLoopConfig()):
+    """One case on a height map in the receding-horizon loop: (the case's result as ``case_result`` writes it, the
+    Drake run (``SimulationResult3D``; None on the fast backend)). ``final_x`` is the last apex's x; "final" in the
+    result holds its (x, y); under noise "executed_params" is the hopper that ran."""
+    loop = MapLoop(planner, case, params, config)
+    sim, reached = None, None   # reached: the last foothold the hopper touched down on
+    if config.backend == "drake":
+        sim = simulate3d(case.apex, loop.command, case.terrain, loop.executed, max_hops=config.max_hops + 1)
+        failure = sim.failure.name if sim.failure is not None else loop.failure
+        final = sim.apexes[-1] if sim.apexes else case.apex
+        reached = sim.footholds[-1] if sim.footholds else None
+    else:
+        apex, failure = tuple(case.apex), None
+        while True:
+            command = loop.command(apex, loop.hops)
+            if command is None:
+                failure = loop.failure
+                break
+            hop = step3d(apex, command, case.terrain, loop.executed)
+            if not hop.ok:
+                failure = hop.failure.name
+                break
+            apex, reached = tuple(hop.next_apex), hop.foothold
+        final = apex
+    if failure is None and not loop.done:
+        failure = "STOPPED_SHORT"
+    noisy = not loop.noise.silent
+    if failure is None and noisy and (reached is None or not passes_goal(reached, case.apex, case.goal, loop.radius)):
+        failure = "STOPPED_SHORT"   # the robot believed a foothold passed the goal; the one it reached did not
+    result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
+    result["final"] = [float(final[0]), float(final[1])]
+    return result, sim

@@ -1,0 +1,149 @@
+"""The planners on height maps: the same labels, one interface (``plan(apex, height_map, (x, y))``); Step-space's
+plans are flown exactly by the compiled step map, go round what they cannot cross, and the loop reaches the goal."""
+import math
+
+import numpy as np
+import pytest
+
+import drakeslip as ds
+import planners
+from drakeslip.spatial.families import height_map_family
+from drakeslip.spatial.heightmap import HeightMap
+from drakeslip.spatial.stepmap import step3d
+from planners.replanning import ClosedLoopConfig
+from planners.spatial_loop import MapCase, passes_goal, run_map_case
+
+P = ds.SlipParams()
+START = (-1.0, 0.0, 0.9, 1.5, 0.0)
+
+
+def walled_map():
+    """Flat ground with a band of holes 1.5 m wide across the path (no hop crosses it) but for an opening at
+    y in [1, 2)."""
+    cell, x0, y0 = 0.05, -3.0, -3.0
+    h = np.zeros((120, 400))
+    x, y = x0 + (np.arange(400) + 0.5) * cell, y0 + (np.arange(120) + 0.5) * cell
+    wall, opening = (x >= 3.0) & (x < 4.5), (y >= 1.0) & (y < 2.0)
+    h[np.ix_(~opening, wall)] = np.nan
+    return HeightMap(h, cell, (x0, y0))
+
+
+@pytest.fixture(scope="module")
+def step_planner():
+    return planners.make("step")
+
+
+@pytest.mark.parametrize("family", ["gaps", "stones", "stairs", "blocks", "course"])
+def test_step_space_plans_are_flown_exactly(step_planner, family):
+    """Every planned hop, flown from the plan's own apexes with its leg angles, lands within the tolerance of its
+    foothold on solid ground and reaches the planned apex; the last foothold passes the target."""
+    height_map = height_map_family(family)(21, 0.3)
+    plan = step_planner.plan(START, height_map, (6.0, 0.0), P)
+    assert plan.success, plan.message
+    assert plan.footholds.shape[1] == 3 and plan.leg_angles.shape[1] == 2 and plan.apexes.shape[1] == 5
+    apex = START
+    for foothold, legs, predicted in zip(plan.footholds, plan.leg_angles, plan.apexes):
+        assert math.acos(math.cos(legs[0]) * math.cos(legs[1])) < P.max_leg_angle
+        hop = step3d(apex, legs, height_map, P)
+        assert hop.ok and math.dist(hop.foothold[:2], foothold[:2]) < 0.02
+        assert not height_map.is_hole_at(*foothold[:2]) and foothold[2] == height_map.height_at(*foothold[:2])
+        assert np.allclose(hop.next_apex, predicted, rtol=0, atol=1e-12)
+        apex = tuple(predicted)
+    last = plan.footholds[-1]
+    assert passes_goal(last, START, (plan.target_x, plan.target_y), 0.5)
+    again = step_planner.plan(START, height_map, (6.0, 0.0), P)
+    assert np.array_equal(again.footholds, plan.footholds) and again.ode_calls == plan.ode_calls
+
+
+def test_a_plan_goes_round_what_it_cannot_cross(step_planner):
+    plan = step_planner.plan(START, walled_map(), (7.0, 0.0), P)
+    assert plan.success, plan.message
+    inside = plan.footholds[(plan.footholds[:, 0] >= 3.0) & (plan.footholds[:, 0] < 4.5)]
+    assert len(inside) >= 1 and np.all((inside[:, 1] >= 1.0) & (inside[:, 1] < 2.0))
+    assert plan.footholds[-1, 0] >= plan.target_x
+
+
+def test_a_robust_plan_s_hops_survive_every_particle():
+    """``step@robust`` on a map: every hop of its plan, flown from the apex the plan has there by each of the robust
+    check's particles (the apex told off, the leg off, another spring, mass and friction), lands on its foothold's
+    level and keeps going; some nominal plan has a hop that some particle does not survive."""
+    from planners.search.robust import Robustness
+    from planners.search.spatial_step import robust_particles
+
+    particles = robust_particles(Robustness(), P, Robustness().sigmas)
+
+    def all_survive(plan, height_map):
+        told = [START] + [tuple(a) for a in plan.apexes[:-1]]
+        for apex, legs, foothold in zip(told, plan.leg_angles, plan.footholds):
+            for errors, params in zip(particles.errors, particles.params):
+                hop = step3d(tuple(np.array(apex) - errors[:5]), tuple(legs + errors[5:]), height_map,
+                             ds.SlipParams(*params))
+                if not (hop.ok and abs(hop.foothold[2] - foothold[2]) <= 0.02):
+                    return False
+        return True
+
+    fragile = 0
+    for seed in range(3):
+        height_map = height_map_family("stairs")(30 + seed, 0.6)
+        robust, nominal = (planners.make(label).plan(START, height_map, (6.0, 0.0), P)
+                           for label in ("step@robust", "step"))
+        assert robust.success and "robust" in robust.message, robust.message
+        assert all_survive(robust, height_map)
+        fragile += not all_survive(nominal, height_map)
+    assert fragile >= 1
+
+
+def test_the_heuristic_plans_on_a_map_without_simulating():
+    plan = planners.make("heuristic").plan(START, HeightMap.flat(), (6.0, 1.0), P)
+    assert plan.success and plan.ode_calls == 0 and plan.footholds.shape[1] == 3
+    assert plan.footholds[-1, 0] >= plan.target_x - 0.5
+
+
+@pytest.mark.parametrize("label, message", [
+    ("trajopt", "plans on profiles"), ("angle", "plans on profiles")])
+def test_what_does_not_plan_on_maps_says_so(label, message):
+    with pytest.raises(ValueError, match=message) as error:
+        planners.make(label).plan(START, HeightMap.flat(), (6.0, 0.0), P)
+    assert "\n" not in str(error.value)
+
+
+@pytest.mark.parametrize("goal, message", [(6.0, "point"), ((6.0, math.nan), "goal y"), ((1e9, 0.0), "goal x")])
+def test_bad_goals_and_apexes_are_refused(step_planner, goal, message):
+    with pytest.raises(ValueError, match=message):
+        step_planner.plan(START, HeightMap.flat(), goal, P)
+    with pytest.raises(ValueError, match="no horizontal speed"):
+        step_planner.plan((0.0, 0.0, 0.9, 0.0, 0.0), HeightMap.flat(), (6.0, 0.0), P)
+    with pytest.raises(ValueError, match="apex must be"):
+        step_planner.plan((0.0, 0.9, 1.5), HeightMap.flat(), (6.0, 0.0), P)
+
+
+@pytest.mark.parametrize("backend", ["fast", "drake"])
+def test_the_loop_reaches_a_goal_round_a_wall(step_planner, backend):
+    case = MapCase("walled", walled_map(), START, (7.0, 0.0))
+    result, sim = run_map_case(step_planner, case, P, ClosedLoopConfig(backend=backend))
+    assert result["success"], result
+    assert (sim is not None) == (backend == "drake")
+    executed = [f for plan in result["plans"] for f in plan["executed"]]
+    assert any(3.0 <= x < 4.5 and 1.0 <= y < 2.0 for x, y, _ in executed)
+    if sim is not None:   # the controller lands the Drake hopper on every foothold it aims at
+        assert len(sim.footholds) == len(executed)
+        assert max(math.dist(a[:2], b[:2]) for a, b in zip(sim.footholds, executed)) < 1e-6
+
+
+@pytest.mark.parametrize("backend", ["fast", "drake"])
+def test_the_loop_runs_noise_on_maps(step_planner, backend):
+    """Under a noise profile the loop plans from the apex it is told and flies the executed hopper on the true map:
+    the feet land near, not on, the footholds aimed at, and on Drake the simulation runs that hopper. (Whether it
+    reaches the goal is tests/test_spatial_noise.py's, over several cases.)"""
+    from drakeslip.noise import profile
+
+    case = MapCase("flat", HeightMap.flat(), START, (5.0, 0.0))
+    config = ClosedLoopConfig(backend=backend, executed_per_plan=1, noise=profile("realistic"))
+    result, sim = run_map_case(step_planner, case, P, config)
+    executed = ds.SlipParams(**result["executed_params"])
+    assert executed != P and all(p["seen_apex"] != p["apex"] for p in result["plans"])
+    aimed = [f for plan in result["plans"] for f in plan["executed"]]
+    assert len(aimed) >= 3 and (sim is not None) == (backend == "drake")
+    if sim is not None:
+        misses = [math.dist(a[:2], b[:2]) for a, b in zip(sim.footholds, aimed)]
+        assert sim.params == executed and len(sim.footholds) == len(aimed) and 0 < max(misses) < 0.05, misses
