@@ -248,7 +248,8 @@ def test_train_hopper_at_a_tiny_size_writes_a_folder_the_planners_use(inputs, ru
                                 "--hopper", folder, "--out", inputs / "plan.json")
     assert code in (0, 1), err   # the one-step planner may find no plan; it ran with the folder's weights
     assert files_read("lstm", hopper_options("lstm", None, hopper)) == {
-        "model": str(folder / EXPERT_WEIGHTS.name), "ranker": str(folder / RANKER_WEIGHTS.name)}
+        "model": str(folder / EXPERT_WEIGHTS.name), "ranker": str(folder / RANKER_WEIGHTS.name),
+        "map_model": str(SPATIAL_WEIGHTS)}   # a hopper folder holds no height-map model: the committed one
 
 
 def test_hop_runs_another_hopper_on_a_terrain_file(inputs, run_script):
