@@ -2,7 +2,7 @@
 plan, fly the plan's first footholds, replan from the apex reached; until a foothold passes the goal, a failure, no
 plan, or the hop cap.
 
-On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.simulation.ApexPolicy``)
+On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.hybrid_hopper.ApexPolicy``)
 plans when the footholds it was given run out and aims the leg at the next one with the spatial controller, so the
 run is one continuous trajectory (a replay draws it whole). On the fast backend each hop is one compiled step. The
 loop's settings are ``planners.replanning.ClosedLoopConfig``'s.
