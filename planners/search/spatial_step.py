@@ -6,7 +6,9 @@ Each node's children are the grid's footholds within reach (hundreds: the grid i
 clear of any face or hole within the edge margin, inside the known window, reached with the leg inside the friction
 cone, and whose hop lands within the tolerance and keeps the least speed. A child's queue key is the planar one in
 the plane: its foothold's distance to the target, its speed, and its isolation (how many of its grid neighbours
-failed). A search that finds nothing is retried on each finer fallback grid."""
+failed). A search that finds nothing is retried on each finer fallback grid. With a robustness (``step@robust``), a
+child is kept only where every robust particle flies it too (``robust_particles``), at the robustness's sigmas and
+then RELAXED_SIGMAS on the first grid, before the nominal searches (``levels``)."""
 from __future__ import annotations
 
 import functools
