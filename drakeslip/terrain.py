@@ -251,10 +251,16 @@ TERRAIN_FAMILIES = {"ditch": ditch_world, "step": step_world, "mixed": mixed_wor
 def check_families(names) -> tuple:
     """``names`` as a tuple when it lists one or more terrain families of ``TERRAIN_FAMILIES``; else a ValueError
     naming the unknown ones and the known families."""
+    return check_names(names, TERRAIN_FAMILIES, "terrain families")
+
+
+def check_names(names, known: dict, kind: str) -> tuple:
+    """``names`` as a tuple when it lists one or more keys of ``known``; else a ValueError naming the unknown ones,
+    ``kind`` and the known names (the planar and the height-map families are checked alike)."""
     names = tuple(names)
-    unknown = [name for name in names if not isinstance(name, str) or name not in TERRAIN_FAMILIES]
+    unknown = [name for name in names if not isinstance(name, str) or name not in known]
     if unknown or not names:
-        raise ValueError(f"unknown terrain families {unknown}; choose from {sorted(TERRAIN_FAMILIES)}")
+        raise ValueError(f"unknown {kind} {unknown}; choose from {sorted(known)}")
     return names
 
 

@@ -164,18 +164,29 @@ def compare_backends(n_cases: int, seed: int, families=("step",), params: ds.Sli
                      tolerance: float = 2e-3) -> AgreementReport:
     """Run every random case on both backends and compare outcome, foothold and next apex."""
     params = params or ds.SlipParams()
-    comparisons, fast_seconds, drake_seconds, outcomes = [], 0.0, 0.0, {}
     ds.step((0.0, 1.0, 1.0), 0.0, ds.Terrain.flat(), params)  # load the compiled kernel outside the timing
-    for case in draw_cases(n_cases, seed, tuple(families), params):
-        terrain = case.terrain()
+
+    def hop(case, terrain, backend):
+        return ds.step(case.apex, case.leg_angle, terrain, params, backend=backend)
+
+    return compare(draw_cases(n_cases, seed, tuple(families), params), Case.terrain, hop, Comparison, tolerance)
+
+
+def compare(cases, ground_of, hop, comparison, tolerance: float) -> AgreementReport:
+    """Every case flown by ``hop(case, ground, backend)`` on the fast and the Drake backends over its ground
+    (``ground_of(case)``, made once, outside the timing), each backend timed, as ``comparison``s (``Comparison``, or
+    the spatial hopper's) in one report; the outcomes counted on the fast backend."""
+    comparisons, fast_seconds, drake_seconds, outcomes = [], 0.0, 0.0, {}
+    for case in cases:
+        ground = ground_of(case)
         t0 = time.perf_counter()
-        fast = ds.step(case.apex, case.leg_angle, terrain, params, backend="fast")
+        fast = hop(case, ground, "fast")
         t1 = time.perf_counter()
-        drake = ds.step(case.apex, case.leg_angle, terrain, params, backend="drake")
+        drake = hop(case, ground, "drake")
         t2 = time.perf_counter()
         fast_seconds += t1 - t0
         drake_seconds += t2 - t1
         name = "ok" if fast.ok else fast.failure.name
         outcomes[name] = outcomes.get(name, 0) + 1
-        comparisons.append(Comparison(case, fast, drake))
+        comparisons.append(comparison(case, fast, drake))
     return AgreementReport(comparisons, tolerance, fast_seconds, drake_seconds, outcomes)

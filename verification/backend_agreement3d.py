@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import functools
 import math
-import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -15,7 +14,7 @@ from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.state import StepResult3D
 from drakeslip.spatial.stepmap import step3d
 from drakeslip.units import units_of
-from verification.backend_agreement import AgreementReport
+from verification.backend_agreement import AgreementReport, compare
 
 
 @dataclass(frozen=True)
@@ -124,18 +123,10 @@ def compare_backends3d(n_cases: int, seed: int, families=("course",), params: Sl
                        tolerance: float = 1e-6) -> AgreementReport:
     """Run every random case on both spatial backends and compare outcome, foothold and next apex."""
     params = params or SlipParams()
-    comparisons, fast_seconds, drake_seconds, outcomes = [], 0.0, 0.0, {}
     step3d((0.0, 0.0, 1.0, 1.0, 0.0), (0.0, 0.0), HeightMap.flat(), params)   # compile outside the timing
-    for case in draw_cases3d(n_cases, seed, tuple(families), params):
-        height_map = case.height_map()
-        t0 = time.perf_counter()
-        fast = step3d(case.apex, case.leg_angles, height_map, params, backend="fast")
-        t1 = time.perf_counter()
-        drake = step3d(case.apex, case.leg_angles, height_map, params, backend="drake")
-        t2 = time.perf_counter()
-        fast_seconds += t1 - t0
-        drake_seconds += t2 - t1
-        name = "ok" if fast.ok else fast.failure.name
-        outcomes[name] = outcomes.get(name, 0) + 1
-        comparisons.append(Comparison3D(case, fast, drake))
-    return AgreementReport(comparisons, tolerance, fast_seconds, drake_seconds, outcomes)
+
+    def hop(case, height_map, backend):
+        return step3d(case.apex, case.leg_angles, height_map, params, backend=backend)
+
+    return compare(draw_cases3d(n_cases, seed, tuple(families), params), Case3D.height_map, hop, Comparison3D,
+                   tolerance)

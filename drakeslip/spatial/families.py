@@ -22,6 +22,7 @@ import numpy as np
 from drakeslip.bounds import Bound
 from drakeslip.params import check_number
 from drakeslip.spatial.heightmap import HeightMap
+from drakeslip.terrain import check_names
 
 X_START, X_END, HALF_WIDTH = -3.0, 20.0, 3.0   # [m] the map: x in [X_START, X_END), y in [-HALF_WIDTH, HALF_WIDTH)
 CELL_SIZE = 0.05     # [m]
@@ -281,11 +282,7 @@ HEIGHT_MAP_FAMILIES = {"gaps": gaps_map, "stones": stones_map, "stairs": stairs_
 def check_height_map_families(names) -> tuple:
     """``names`` as a tuple when it lists one or more families of ``HEIGHT_MAP_FAMILIES``; else a ValueError naming
     the unknown ones and the known families."""
-    names = tuple(names)
-    unknown = [name for name in names if not isinstance(name, str) or name not in HEIGHT_MAP_FAMILIES]
-    if unknown or not names:
-        raise ValueError(f"unknown height map families {unknown}; choose from {sorted(HEIGHT_MAP_FAMILIES)}")
-    return names
+    return check_names(names, HEIGHT_MAP_FAMILIES, "height map families")
 
 
 def height_map_family(name: str):

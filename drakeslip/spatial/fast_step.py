@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
 from drakeslip.compiled import compiled
 from drakeslip.dynamics import FACE_TOLERANCE, I_GRAVITY, I_MASS, I_STIFFNESS, classify_foot_contact
@@ -248,13 +247,3 @@ def step_many(apexes, angles, p, ground, stance_steps):
         step_one((a[0], a[1], a[2], a[3], a[4]), angles[k, 0], angles[k, 1], p, ground, stance_steps, out[k])
     return out
 
-
-@compiled(parallel=True)
-def step_many_parallel(apexes, angles, p, ground, stance_steps):
-    """``step_many`` spread over all cores, for large batches."""
-    n = angles.shape[0]
-    out = np.empty((n, N_OUT))
-    for k in prange(n):
-        a = apexes[k]
-        step_one((a[0], a[1], a[2], a[3], a[4]), angles[k, 0], angles[k, 1], p, ground, stance_steps, out[k])
-    return out

@@ -84,7 +84,7 @@ def step3d(apex, leg_angles, height_map: HeightMap, params: SlipParams | None = 
 
 
 def step_batch3d(apex, leg_angles, height_map: HeightMap, params: SlipParams | None = None,
-                 stance_steps: int | None = None, parallel: bool = False) -> BatchStepResult3D:
+                 stance_steps: int | None = None) -> BatchStepResult3D:
     """The compiled backend, batched: every (pitch, roll) of ``leg_angles`` from one apex, or, if ``apex`` is an
     (n, 5) array, one pair per apex row."""
     from drakeslip import fast_step
@@ -102,5 +102,5 @@ def step_batch3d(apex, leg_angles, height_map: HeightMap, params: SlipParams | N
     stance_steps = fast_step.STANCE_STEPS if stance_steps is None else stance_steps
     if int(stance_steps) < 4:
         raise ValueError(f"stance_steps must be at least 4, got {stance_steps}")
-    kernel = fs3.step_many_parallel if parallel else fs3.step_many
-    return BatchStepResult3D(kernel(apexes, angles, params.as_array(), height_map.ground(), np.int64(stance_steps)))
+    return BatchStepResult3D(fs3.step_many(apexes, angles, params.as_array(), height_map.ground(),
+                                           np.int64(stance_steps)))
