@@ -25,14 +25,15 @@ TARGET_MARGIN = 1.0
 
 @dataclass
 class FootstepSequence:
-    """Footholds x_i [m], the leg angles that reach them, and the predicted apex (x, z, xdot) after each."""
+    """Footholds x_i [m], the leg angles that reach them, and the predicted apex (x, z, xdot) after each; on a height
+    map footholds (x, y, z), leg angles (pitch, roll) and apexes (x, y, z, xdot, ydot), a row each."""
 
     footholds: np.ndarray
     leg_angles: np.ndarray
     apexes: np.ndarray
 
     def __len__(self):
-        return self.footholds.size
+        return len(self.footholds)
 
     def to_dict(self) -> dict:
         return {"footholds": self.footholds.tolist(), "leg_angles": self.leg_angles.tolist(),

@@ -1,6 +1,6 @@
 """The receding-horizon loop on a height map (``planners.closed_loop`` in the plane): perceive the window ahead,
 plan, fly the plan's first footholds, replan from the apex reached; until a foothold passes the goal, a failure, no
-plan, or the hop cap.
+plan (a plan's safe hops are flown where it found no sequence: ``Plan.to_fly``), or the hop cap.
 
 On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.hybrid_hopper.ApexPolicy``)
 plans when the footholds it was given run out and aims the leg at the next one with the spatial controller, so the
@@ -140,10 +140,11 @@ class MapLoop:
         if not self.noise.silent:
             record["seen_apex"] = list(seen)
         self.plans.append(record)
-        if plan is None or not plan.success or len(plan.footholds) == 0:
+        footholds = [] if plan is None else plan.to_fly(self.config.executed_per_plan)
+        if len(footholds) == 0:   # no plan, and no safe hops where the planner was asked for them
             self.failure = "NO_PLAN"
             return False
-        self.queue = [tuple(f) for f in plan.footholds[:self.config.executed_per_plan]]
+        self.queue = [tuple(f) for f in footholds]
         return True
 
 

@@ -185,3 +185,17 @@ def test_evaluate_refuses_what_the_map_loop_does_not_run(run_script, tmp_path, s
                                 "--out", tmp_path / "r.json")
     assert code == 2 and message in err and len(err.splitlines()) == 1 and not out, err
     assert not (tmp_path / "r.json.cases.jsonl").exists()
+
+
+def test_planning_speed_times_the_planners_on_a_map_suite(run_script, tmp_path, small):
+    save_map_suite(small, tmp_path / "s.json")
+    code, out, err = run_script("planning_speed", "--suites", tmp_path / "s.json", "--planners", "step,lstm-guided",
+                                "--pairs", "step:lstm-guided", "--cases", 2, "--repeats", 1)
+    assert code == 0, err
+    rows = {line.split()[0]: line.split() for line in out.splitlines() if line.startswith(("step ", "lstm-guided "))}
+    assert "suite gaps-40: 2 cases" in out and set(rows) == {"step", "lstm-guided"}
+    assert all(row[1] in ("0/2", "1/2", "2/2") and float(row[2]) > 0 for row in rows.values()), out
+    assert "mean t_plan step / lstm-guided = " in out and "x; step-map calls " in out
+    code, out, err = run_script("planning_speed", "--suites", tmp_path / "s.json", "--planners", "step,angle",
+                                "--pairs", "step:angle")
+    assert code == 2 and "angle" in err and "profiles" in err and len(err.strip().splitlines()) == 1 and not out

@@ -76,8 +76,8 @@ def map_plans(path: Path) -> None:
     from drakeslip.spatial.heightmap import HeightMap
     from planners.learned.lstm_guided import LSTMGuidedPlanner
 
-    plan = LSTMGuidedPlanner(map_model=path, grid_fallback=True).plan((0.0, 0.0, 0.9, 1.5, 0.0), HeightMap.flat(),
-                                                                      (5.0, 0.0), SlipParams())
+    plan = LSTMGuidedPlanner(map_model=path).plan((0.0, 0.0, 0.9, 1.5, 0.0), HeightMap.flat(), (5.0, 0.0),
+                                                  SlipParams())
     assert plan.success, plan.message
     assert np.all(np.isfinite(plan.footholds)) and plan.footholds.shape[1] == 3
 

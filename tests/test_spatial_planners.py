@@ -147,3 +147,56 @@ def test_the_loop_runs_noise_on_maps(step_planner, backend):
     if sim is not None:
         misses = [math.dist(a[:2], b[:2]) for a, b in zip(sim.footholds, aimed)]
         assert sim.params == executed and len(sim.footholds) == len(aimed) and 0 < max(misses) < 0.05, misses
+
+
+def chasm_map():
+    """Flat ground with holes from x = 3 m on, across the whole map: no hop gets past x = 3 m."""
+    cell, x0, y0 = 0.05, -3.0, -3.0
+    h = np.zeros((120, 400))
+    h[:, int((3.0 - x0) / cell):] = np.nan
+    return HeightMap(h, cell, (x0, y0))
+
+
+@pytest.fixture(scope="module")
+def stranded():
+    """Step-space with safe hops, and without, planning past the chasm."""
+    return {safe: planners.make("step", safe_hops=safe).plan(START, chasm_map(), (8.0, 0.0), P)
+            for safe in (True, False)}
+
+
+def test_with_no_plan_on_a_map_the_safe_hops_are_a_branch_flown_alive(stranded):
+    assert not stranded[False].success and stranded[False].safe_hops is None and len(stranded[False].to_fly()) == 0
+    plan, height_map = stranded[True], chasm_map()
+    assert not plan.success and plan.safe_hops is not None and "safe hops to (" in plan.message
+    safe = plan.safe_hops
+    assert len(safe) == len(safe.footholds) >= 2 and safe.footholds.shape[1] == 3
+    apex = START
+    for foothold, legs, predicted in zip(safe.footholds, safe.leg_angles, safe.apexes):
+        hop = step3d(apex, legs, height_map, P)
+        assert hop.ok and math.dist(hop.foothold[:2], foothold[:2]) < 0.02 and foothold[0] < 3.0
+        assert np.allclose(hop.next_apex, predicted, rtol=0, atol=1e-12)
+        apex = tuple(predicted)
+    assert np.array_equal(plan.to_fly(3), safe.footholds[:min(3, len(safe) - 1)])
+
+
+def test_the_map_loop_flies_the_safe_hops_instead_of_stopping():
+    """Where no plan exists the loop keeps hopping on the safe hops it is given, alive, until the hop cap; without
+    them it stops at the first plan."""
+    case = MapCase("chasm", chasm_map(), START, (8.0, 0.0))
+    config = ClosedLoopConfig(backend="fast", max_hops=6)
+    alive, _ = run_map_case(planners.make("step", safe_hops=True), case, P, config)
+    stopped, _ = run_map_case(planners.make("step"), case, P, config)
+    assert stopped["failure"] == "NO_PLAN" and len(stopped["plans"]) == 1 and not stopped["plans"][0]["executed"]
+    assert alive["failure"] == "HOP_CAP" and all("safe_footholds" in p for p in alive["plans"])
+    executed = [f for p in alive["plans"] for f in p["executed"]]
+    assert len(executed) == 6 and all(x < 3.0 for x, _, _ in executed)
+
+
+def test_the_guided_search_flies_its_cells_at_each_grid_spacing_then_the_grids():
+    """On a map the guided search tries the model's cells with points 5 cm apart, then 2.5 cm apart (Step-space's
+    two grids), then Step-space's grids themselves unless told not to, before it gives up."""
+    cells = [f"{w} model cells a node at {s} cm" for s in ("5", "2.5") for w in (4, 8)]
+    for fallback, grids in ((True, ["5 cm grid", "2.5 cm grid"]), (False, [])):
+        plan = planners.make("lstm-guided", map_grid_fallback=fallback).plan(START, chasm_map(), (8.0, 0.0), P)
+        assert not plan.success
+        assert [s.split(":")[0] for s in plan.message.split("(", 2)[2].rstrip(")").split("; ")] == cells + grids

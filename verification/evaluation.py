@@ -127,13 +127,13 @@ def check_map_run(configs: dict) -> None:
                              f"{MAP_LOOP_BACKENDS}")
 
 
-def check_map_planners() -> None:
-    """ValueError in one line unless every planner ``prepare_worker`` built plans on a height map with its options (a
-    plan to where the hopper already is costs nothing, and one that refuses maps, or its preset's options there,
-    says so here rather than at its first case)."""
+def check_map_planners(planners: dict | None = None) -> None:
+    """ValueError in one line unless every planner of ``planners`` (by label; None: those ``prepare_worker`` built)
+    plans on a height map with its options (a plan to where the hopper already is costs nothing, and one that refuses
+    maps, or its preset's options there, says so here rather than at its first case)."""
     from drakeslip.spatial.heightmap import HeightMap
 
-    for label, planner in _WORKER["planners"].items():
+    for label, planner in (_WORKER["planners"] if planners is None else planners).items():
         try:
             planner.plan((0.0, 0.0, 1.0, 1.0, 0.0), HeightMap.flat(), (0.0, 0.0))
         except ValueError as error:

@@ -2,41 +2,24 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 from typing import Callable, Sequence
 
-import numpy as np
-
-from drakeslip.hybrid_hopper import HybridEvent
 from drakeslip.params import SlipParams
-from drakeslip.simulation import IntegratorConfig, counted_policy, policy_from, run_hopper
+from drakeslip.simulation import IntegratorConfig, SimulationResult, counted_policy, policy_from, run_hopper
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.slip_hopper import SlipHopper3D
 from drakeslip.spatial.state import ApexState3D, StepResult3D, check_apex3d
-from drakeslip.state import FailureMode
 from drakeslip.units import HOP_SECONDS, RUN_SECONDS, units_of
 
 
-@dataclass
-class SimulationResult3D:
-    """A logged multi-hop trajectory of the spatial hopper: ``times`` (N,), ``states`` (N, 6) (x, y, z, xdot, ydot,
-    zdot), ``hybrid`` (N, 11) (HybridState3D), ``events`` the HybridEvent log, ``failure`` the first failure (None
-    when the commands or hops ran out) and ``failure_event`` its entry."""
-
-    times: np.ndarray
-    states: np.ndarray
-    hybrid: np.ndarray
-    events: tuple
-    failure: FailureMode | None
-    failure_event: HybridEvent | None
-    integrator_steps: int
-    params: SlipParams
-    height_map: HeightMap
-    leg_angles: list = field(default_factory=list)
+class SimulationResult3D(SimulationResult):
+    """A logged multi-hop trajectory of the spatial hopper, as ``drakeslip.SimulationResult`` logs the planar one:
+    ``states`` (N, 6) (x, y, z, xdot, ydot, zdot), ``hybrid`` (N, 11) (HybridState3D), and ``terrain`` the height map
+    it ran on (also ``height_map``)."""
 
     @property
-    def ok(self) -> bool:
-        return self.failure is None
+    def height_map(self) -> HeightMap:
+        return self.terrain
 
     @property
     def apexes(self) -> list[ApexState3D]:
@@ -73,7 +56,7 @@ def simulate3d(apex, leg_angles: Sequence | Callable, height_map: HeightMap | No
         integrator or IntegratorConfig(), log, add_to)
     return SimulationResult3D(times=times, states=states, hybrid=hybrid, events=events,
                               failure=failure_event.failure if failure_event else None, failure_event=failure_event,
-                              integrator_steps=steps, params=params, height_map=height_map, leg_angles=used)
+                              integrator_steps=steps, params=params, terrain=height_map, leg_angles=used)
 
 
 def drake_step3d(apex, leg_angles, height_map: HeightMap, params: SlipParams,

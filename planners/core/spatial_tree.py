@@ -1,8 +1,8 @@
 """The search tree on a height map: ``planners.core.tree``'s arrays with a spatial node, for the one best-first loop.
 
 Node i > 0 is the child of ``parent[i]`` by the leg (pitch, roll) ``angle[i]`` that lands on ``foothold[i]`` (x, y,
-z) and reaches ``apex[i]`` (x, y, z, xdot, ydot). The frontier, the heap and the budget are the planar tree's; the
-loop is bound to ``SPATIAL_TREE``'s functions (``planners.core.best_first.specialized``)."""
+z) and reaches ``apex[i]`` (x, y, z, xdot, ydot). The frontier, the heap, the budget and the growth (``reserve``) are
+the planar tree's; the loop is bound to ``SPATIAL_TREE``'s functions (``planners.core.best_first.specialized``)."""
 from __future__ import annotations
 
 import math
@@ -11,7 +11,7 @@ from collections import namedtuple
 import numpy as np
 
 from drakeslip.compiled import compiled
-from planners.core.tree import CAPACITY, Tree, copy_head, heap_push
+from planners.core.tree import CAPACITY, Tree, heap_push, reserve
 
 # Where a search on a height map goes: a goal's foothold lies past the line through (x, y) across the ``heading``
 # (hx, hy) (a unit vector) and within ``half_width`` of (x, y) along it
@@ -40,21 +40,6 @@ def new_tree(root):
     for k in range(APEX):
         tree.apex[0, k] = root[k]
     return tree
-
-
-@compiled(inline="always")
-def reserve(tree, size, extra):
-    """``tree`` with room for ``extra`` nodes after its first ``size``."""
-    if size + extra <= tree.parent.shape[0]:
-        return tree
-    larger = tree_arrays(max(2 * tree.parent.shape[0], size + extra))
-    copy_head(larger.parent, tree.parent, size)
-    copy_head(larger.angle, tree.angle, size)
-    copy_head(larger.foothold, tree.foothold, size)
-    copy_head(larger.apex, tree.apex, size)
-    copy_head(larger.cost, tree.cost, size)
-    copy_head(larger.depth, tree.depth, size)
-    return larger
 
 
 @compiled()

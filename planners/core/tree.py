@@ -100,17 +100,13 @@ def copy_head(dst, src, n):
 
 @compiled(inline="always")
 def reserve(tree, size, extra):
-    """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed)."""
-    if size + extra <= tree.parent.shape[0]:
+    """``tree`` with room for ``extra`` nodes after its first ``size`` (a copy twice as large when needed), whatever
+    the widths of its node's arrays: the planar tree's and the spatial one's (``planners.core.spatial_tree``)."""
+    need = size + extra
+    if need <= tree.parent.shape[0]:
         return tree
-    larger = tree_arrays(max(2 * tree.parent.shape[0], size + extra))
-    copy_head(larger.parent, tree.parent, size)
-    copy_head(larger.angle, tree.angle, size)
-    copy_head(larger.foothold, tree.foothold, size)
-    copy_head(larger.apex, tree.apex, size)
-    copy_head(larger.cost, tree.cost, size)
-    copy_head(larger.depth, tree.depth, size)
-    return larger
+    return Tree(grown(tree.parent, need), grown(tree.angle, need), grown(tree.foothold, need), grown(tree.apex, need),
+                grown(tree.cost, need), grown(tree.depth, need))
 
 
 @compiled()

@@ -17,14 +17,13 @@ each cell in channel k), so the image keeps the terrain's 10 cm resolution. ``su
 """
 from __future__ import annotations
 
-from dataclasses import asdict
-
 import torch
 from torch import nn
 
-from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
-
+from planners.learned.checkpoint import load_model_checkpoint, save_model_checkpoint
 from planners.learned.config import ModelConfig
+
+FORMAT = "drakeslip-lstm/1"
 
 
 class FootstepModel(nn.Module):
@@ -76,25 +75,11 @@ class FootstepModel(nn.Module):
 
 
 def save_checkpoint(path, model: FootstepModel, extra: dict | None = None) -> None:
-    """Write weights and config atomically."""
-    payload = {"format": "drakeslip-lstm/1", "config": asdict(model.config), "state_dict": model.state_dict(),
-               **(extra or {})}
-    with atomic_write(path) as f:
-        torch.save(payload, f)
-    record_digest(path)
+    """Write weights and config atomically (``planners.learned.checkpoint``)."""
+    save_model_checkpoint(path, model, FORMAT, extra)
 
 
 def load_checkpoint(path) -> tuple[FootstepModel, dict]:
-    """Load a checkpoint written by save_checkpoint (tensors and plain data only: ``weights_only``). A committed
-    file is checked against its folder's SHA-256 manifest; a changed, corrupt or mismatched file raises ValueError
-    naming it."""
-    payload = load_weights(path, "LSTM weights file")
-    if not isinstance(payload, dict) or payload.get("format") != "drakeslip-lstm/1":
-        raise ValueError(f"{path} is not a drakeslip LSTM checkpoint (missing format 'drakeslip-lstm/1')")
-    try:
-        model = FootstepModel(ModelConfig(**payload["config"]))
-        model.load_state_dict(payload["state_dict"])
-    except (KeyError, TypeError, RuntimeError) as err:
-        raise ValueError(f"LSTM weights file {path} does not match the model: {first_line(err)}") from err
-    model.eval()
-    return model, payload
+    """Load a checkpoint written by save_checkpoint, checked against its folder's SHA-256 manifest; a changed,
+    corrupt or mismatched file raises ValueError naming it."""
+    return load_model_checkpoint(path, FORMAT, FootstepModel, ModelConfig, "LSTM")

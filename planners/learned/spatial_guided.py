@@ -1,8 +1,10 @@
 """The learned planners on a height map: the spatial footstep model (planners/learned/spatial_model.py) ranks the
 patch ahead of each node and the search flies the points of its most probable cells (``planners.core.spatial_sampled``)
-instead of Step-space's whole grid. ``LSTMGuidedPlanner.plan_on_map`` searches with ``branching`` cells a node, then
-each ``fallback`` width, then (``grid_fallback``) Step-space's grid; ``LSTMPlanner.plan_on_map`` follows the model's
-most probable cell (one cell a node, little backtracking): the paper's LSTM planner on a map."""
+instead of Step-space's whole grid, a cell's points as far apart as the points of Step-space's grids: 5 cm, then
+2.5 cm, where a foothold on a small stone needs the finer one. ``LSTMGuidedPlanner.plan_on_map`` searches with each
+of its ``map_cells`` widths in turn at each spacing, then (``grid_fallback``) Step-space's grids;
+``LSTMPlanner.plan_on_map`` follows the model's most probable cell (one cell a node, little backtracking): the
+paper's LSTM planner on a map."""
 from __future__ import annotations
 
 import functools
@@ -19,8 +21,6 @@ from planners.search.spatial_problem import SpatialProblem, reached, spatial_pro
 from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings, already_there,
                                           grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
 
-
-SPLIT = 2   # the points a cell's side is split into: its 10 cm into 5 cm, Step-space's grid
 
 
 @functools.lru_cache(maxsize=4)
@@ -47,14 +47,18 @@ def sampled_expansion(problem: SpatialProblem, settings: SpatialStepSettings, mo
 # many parameters: the planner's options that apply on a map, and its budget and name
 def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_path, widths, grid_fallback: bool,
                 budget: Budget, name: str) -> Plan:
-    """The guided searches of ``widths`` cells a node in turn, each cell's SPLIT x SPLIT points, at each robustness
-    level of ``settings`` (``planners.search.spatial_step.levels``), then Step-space's grid where ``grid_fallback``."""
+    """The guided searches of ``widths`` cells a node in turn, at each of Step-space's grid spacings (a cell's side
+    split into as many points; a robust level at the first spacing only, as Step-space's), at each robustness level of
+    ``settings`` (``planners.search.spatial_step.levels``), then Step-space's grids where ``grid_fallback``."""
     warm_up()
-    searches = [(f"{label}{w} model cells a node",
-                 sampled_expansion(problem, settings, model_path, w, SPLIT, particles))
-                for label, particles in levels(settings, problem.params) for w in widths]
+    cell = view_of(spatial_model(str(model_path))[0], problem.params).cell
+    spacings = grid_spacings(problem.units, settings)
+    searches = [(f"{label}{w} model cells a node at {spacing * 100:.3g} cm",
+                 sampled_expansion(problem, settings, model_path, w, max(1, round(cell / spacing)), particles))
+                for label, particles in levels(settings, problem.params)
+                for spacing in (spacings if particles is NOMINAL else spacings[:1]) for w in widths]
     if grid_fallback:   # Step-space's grids in turn, nominal, as its own last round
-        for spacing in grid_spacings(problem.units, settings):
+        for spacing in spacings:
             searches.append((f"{spacing * 100:g} cm grid", SpatialExpansion(
                 grid_of(problem, settings, spacing), problem.height_map.ground(), problem.params.as_array(),
                 scoring_of(problem, settings.cost_weights), NOMINAL)))
@@ -74,7 +78,8 @@ def plan_on_map(planner, apex, height_map, goal, params, widths, grid_fallback: 
     settings = SpatialStepSettings(getattr(planner, "spacing", None), None, getattr(planner, "tolerance", None),
                                    getattr(planner, "edge_margin", None), getattr(planner, "min_speed", None),
                                    robustness=getattr(planner, "robustness", None),
-                                   fallback_nominal=getattr(planner, "fallback_nominal", True))
+                                   fallback_nominal=getattr(planner, "fallback_nominal", True),
+                                   safe_hops=getattr(planner, "safe_hops", False))
     plan = plan_guided(problem, settings, model_path, widths, grid_fallback, budget, planner.name)
     plan.time_s = time.perf_counter() - t0
     problem.timing.total = plan.time_s

@@ -10,15 +10,12 @@ Its inputs are made by ``planners.core.spatial_model.node_view`` and its compile
 ``planners.core.spatial_model.logits_of`` (tests check the two agree); ``arrays`` gives that pass its weights."""
 from __future__ import annotations
 
-from dataclasses import asdict
-
 import numpy as np
 import torch
 from torch import nn
 
-from drakeslip.jobs.files import atomic_write, first_line, load_weights, record_digest
-
 from planners.core.spatial_model import N_APEX, N_COORDS, N_HISTORY, SpatialModelArrays, patch_coordinates
+from planners.learned.checkpoint import load_model_checkpoint, save_model_checkpoint
 from planners.learned.config import SpatialModelConfig
 
 FORMAT = "drakeslip-spatial-footstep/1"
@@ -56,22 +53,10 @@ class SpatialFootstepModel(nn.Module):
 
 def save_spatial_checkpoint(path, model: SpatialFootstepModel, extra: dict | None = None) -> None:
     """Write the weights and config atomically, and their digest in the folder's manifest."""
-    payload = {"format": FORMAT, "config": asdict(model.config), "state_dict": model.state_dict(), **(extra or {})}
-    with atomic_write(path) as f:
-        torch.save(payload, f)
-    record_digest(path)
+    save_model_checkpoint(path, model, FORMAT, extra)
 
 
 def load_spatial_checkpoint(path) -> tuple[SpatialFootstepModel, dict]:
     """A checkpoint written by ``save_spatial_checkpoint``, checked against its folder's SHA-256 manifest; a changed,
     corrupt or mismatched file raises ValueError naming it."""
-    payload = load_weights(path, "spatial footstep weights file")
-    if not isinstance(payload, dict) or payload.get("format") != FORMAT:
-        raise ValueError(f"{path} is not a drakeslip spatial footstep checkpoint (missing format {FORMAT!r})")
-    try:
-        model = SpatialFootstepModel(SpatialModelConfig(**payload["config"]))
-        model.load_state_dict(payload["state_dict"])
-    except (KeyError, TypeError, RuntimeError) as err:
-        raise ValueError(f"spatial footstep weights file {path} does not match the model: {first_line(err)}") from err
-    model.eval()
-    return model, payload
+    return load_model_checkpoint(path, FORMAT, SpatialFootstepModel, SpatialModelConfig, "spatial footstep")

@@ -28,7 +28,7 @@ from planners.core.spatial_tree import SpatialScoring, SpatialTarget
 from planners.search.loop import search
 from planners.search.spatial_problem import SpatialProblem
 from planners.search.robust import Robustness
-from planners.search.tree import ISOLATION_AT_FAILURE, MIN_SPEED, CostWeights
+from planners.search.tree import ISOLATION_AT_FAILURE, MIN_SPEED, Attempts, CostWeights
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, as every planner does):
 SPACING = 0.05              # the foothold grid: the height-map families' 5 cm cells
@@ -46,7 +46,8 @@ RELAXED_SIGMAS = 1.0
 
 @dataclass(frozen=True)
 class SpatialStepSettings:
-    """Step-space's settings on a height map; None takes the paper's hopper's value in the hopper's units."""
+    """Step-space's settings on a height map; None takes the paper's hopper's value in the hopper's units.
+    ``safe_hops``: where no search finds a sequence, the plan holds the safest branch they grew (``Plan.safe_hops``)."""
 
     spacing: float | None = None
     fallback_spacing: tuple | None = None
@@ -58,6 +59,7 @@ class SpatialStepSettings:
     stance_steps: int = 60
     robustness: Robustness | None = None
     fallback_nominal: bool = True
+    safe_hops: bool = False
 
 
 NOMINAL = RobustParticles(np.zeros((0, 7)), np.zeros((0, 6)))   # a nominal search's: none
@@ -149,25 +151,15 @@ def search_step_space(problem: SpatialProblem, settings: SpatialStepSettings, bu
 
 def run_searches(problem: SpatialProblem, searches, settings: SpatialStepSettings, budget: Budget, name: str):
     """Run the (label, expansion) ``searches`` in turn, each within ``budget``, until one finds a sequence or the time
-    runs out: (the plan, the last search's tree)."""
-    ode_calls = nodes = 0
-    stops = []
+    runs out (``planners.search.tree.Attempts``: the planar planners' accounting, safe hops included where
+    ``settings.safe_hops``): (the plan, the last search's tree)."""
+    tried = Attempts(name, problem.target_x, settings.safe_hops, target_y=problem.target[1])
     for label, expansion in searches:
         with compiling():
             result = search(problem, expansion, NO_STATE, settings.n_sequences, budget, target_of(problem))
-        ode_calls += result.ode_calls
-        nodes += result.nodes_expanded
-        stops.append(f"{label}: {result.stop}")
-        tree = result.tree
-        if tree.goals:
-            return Plan(name, True, problem.target_x, ode_calls, nodes_expanded=nodes,
-                        sequences=[tree.path(g) for g in tree.goals], time_limited=result.stop == "time",
-                        message=f"found by the {'; '.join(stops)}", target_y=problem.target[1]), tree
-        if result.stop == "time":
+        if tried.ended(label, result):
             break
-    return Plan(name, False, problem.target_x, ode_calls, nodes_expanded=nodes, target_y=problem.target[1],
-                message=f"no plan found to ({problem.target[0]:.2f}, {problem.target[1]:.2f}) ({'; '.join(stops)})",
-                time_limited=stops[-1].endswith(": time")), tree
+    return tried.plan(), result.tree
 
 
 def already_there(problem: SpatialProblem, name: str) -> Plan:

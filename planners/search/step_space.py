@@ -124,19 +124,18 @@ class StepSpacePlanner(Planner):
 
     def plan_on_map(self, apex, height_map, goal, params=None) -> Plan:
         """Step-space on a height map (``planners.search.spatial_step``) with this planner's grid, tolerance, margins,
-        cost weights, budget and robustness (its noise and sigmas: particles that must survive each hop); its
-        2D-only options (the Drake step map, safe hops) are refused in one line."""
+        cost weights, budget, robustness (its noise and sigmas: particles that must survive each hop) and safe hops;
+        the Drake step map, a planar option, is refused in one line."""
         t0 = time.perf_counter()
-        unsupported = [name for name, used in (("step_map='drake'", self.step_map != "fast"),
-                                               ("safe_hops", self.safe_hops)) if used]
-        if unsupported:
-            raise ValueError(f"the {self.name!r} planner plans on a height map without {', '.join(unsupported)}")
+        if self.step_map != "fast":
+            raise ValueError(f"the {self.name!r} planner plans on a height map without step_map='drake'")
         problem = spatial_problem(apex, height_map, goal, params, self.horizon, t0, self.budget.max_time_s)
         if reached(problem):
             return already_there(problem, self.name)
         settings = SpatialStepSettings(self.spacing, self.fallback_spacing, self.tolerance, self.edge_margin,
                                        self.min_speed, self.cost_weights, self.n_sequences,
-                                       robustness=self.robustness, fallback_nominal=self.fallback_nominal)
+                                       robustness=self.robustness, fallback_nominal=self.fallback_nominal,
+                                       safe_hops=self.safe_hops)
         plan = plan_step_space(problem, settings, self.budget, self.name)
         plan.time_s = time.perf_counter() - t0
         problem.timing.total = plan.time_s

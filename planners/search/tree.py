@@ -92,6 +92,11 @@ class SearchTree:
                                 np.array([self.angle[i] for i in nodes]),
                                 np.array([self.apex[i] for i in nodes]).reshape(-1, len(self.root_apex)))
 
+    def speeds(self) -> np.ndarray:
+        """Each node's apex speed: xdot in the plane, |(xdot, ydot)| on a height map."""
+        apex = np.asarray(self.apex, dtype=float)
+        return apex[:, 2] if apex.shape[1] == 3 else np.hypot(apex[:, 3], apex[:, 4])
+
     def leaves(self) -> list[int]:
         """Nodes with no children (the frontier and the dead ends), root excluded."""
         has_child = np.zeros(len(self), dtype=bool)
@@ -137,10 +142,11 @@ class Attempts:
     call (``Plan.time_limited``), their work summed into one ``Plan``. The planner runs each search and hands its
     result here, so control stays with the planner. With ``safe_hops``, a call that finds no sequence returns the
     safest branch its searches grew (``Plan.safe_hops``): the deepest, up to SAFE_DEPTH hops, the earlier search's
-    (the more robust) where two are as deep, then the one ending fastest."""
+    (the more robust) where two are as deep, then the one ending fastest. On a height map ``target_y`` is the
+    target's y."""
 
-    def __init__(self, planner: str, target_x: float, safe_hops: bool = False):
-        self.planner, self.target_x = planner, target_x
+    def __init__(self, planner: str, target_x: float, safe_hops: bool = False, target_y: float | None = None):
+        self.planner, self.target_x, self.target_y = planner, target_x, target_y
         self.ode_calls = self.nodes = 0
         self.stops = []
         self.found = None   # (label, result) of the search that found sequences
@@ -163,7 +169,7 @@ class Attempts:
         if len(tree) < 2:
             return
         depth = np.minimum(np.asarray(tree.depth[1:]), SAFE_DEPTH)
-        speed = np.asarray(tree.apex[1:], dtype=float)[:, 2]
+        speed = tree.speeds()[1:]
         node = 1 + int(np.lexsort((-speed, -depth))[0])
         if self.safest is None or depth[node - 1] > self.safest[0]:
             self.safest = int(depth[node - 1]), label, tree, node
@@ -175,15 +181,23 @@ class Attempts:
             before = f" (after {'; '.join(stops[:-1])})" if len(stops) > 1 else ""
             return Plan(self.planner, True, self.target_x, self.ode_calls, nodes_expanded=self.nodes,
                         sequences=[result.tree.path(g) for g in result.tree.goals],
-                        time_limited=result.stop == "time", message=f"found by {label}{before}")
-        message = f"no plan found to x={self.target_x:.2f} ({'; '.join(self.stops)})"
+                        time_limited=result.stop == "time", message=f"found by {label}{before}",
+                        target_y=self.target_y)
+        message = f"no plan found to {self.where(self.target_x, self.target_y)} ({'; '.join(self.stops)})"
         safe = None
         if self.safest is not None:
             _, label, tree, node = self.safest
             safe = tree.path(node)
-            message += f"; {len(safe)} safe hops to x={safe.footholds[-1]:.2f} by {label}"
+            last = safe.footholds[-1]
+            point = (last, None) if self.target_y is None else (last[0], last[1])
+            message += f"; {len(safe)} safe hops to {self.where(*point)} by {label}"
         return Plan(self.planner, False, self.target_x, self.ode_calls, nodes_expanded=self.nodes, message=message,
-                    time_limited=self.stops[-1].endswith(": time"), safe_hops=safe)
+                    time_limited=self.stops[-1].endswith(": time"), safe_hops=safe, target_y=self.target_y)
+
+    @staticmethod
+    def where(x: float, y: float | None) -> str:
+        """A point as the messages write it: x=X in the plane, (X, Y) on a height map."""
+        return f"x={x:.2f}" if y is None else f"({x:.2f}, {y:.2f})"
 
 
 def run_depth(mask: np.ndarray) -> np.ndarray:
