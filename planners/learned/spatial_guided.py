@@ -2,7 +2,7 @@
 patch ahead of each node and the search flies the points of its most probable cells (``planners.core.spatial_sampled``)
 instead of Step-space's whole grid, a cell's points as far apart as the points of Step-space's grids: 5 cm, then
 2.5 cm, where a foothold on a small stone needs the finer one. ``LSTMGuidedPlanner.plan_on_map`` searches with each
-of its ``map_cells`` widths in turn at each spacing, then (``grid_fallback``) Step-space's grids;
+of its ``map_cells`` widths in turn at each spacing, then (``map_grid_fallback``) Step-space's grids;
 ``LSTMPlanner.plan_on_map`` follows the model's most probable cell (one cell a node, little backtracking): the
 paper's LSTM planner on a map."""
 from __future__ import annotations
@@ -20,7 +20,6 @@ from planners.core.spatial_sampled import SpatialSampledExpansion
 from planners.search.spatial_problem import SpatialProblem, reached, spatial_problem
 from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings, already_there,
                                           grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
-
 
 
 @functools.lru_cache(maxsize=4)
