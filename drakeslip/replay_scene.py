@@ -235,21 +235,33 @@ def animate(meshcat, scene: Scene, hopper_at, shown_from: dict, root: str, *, fp
     ({path: RigidTransform}, [(path, property, value)]), the world slid under the camera by the body's x with
     ``follow``, each marker of ``shown_from`` visible from its time on. Frame 0 is also set as the scene's
     state. Returns the number of frames."""
-    from pydrake.geometry import MeshcatAnimation
     from pydrake.math import RigidTransform
+
+    def frame_at(t):
+        poses, props = hopper_at(t)
+        if follow:
+            poses[f"{root}/world"] = RigidTransform([-scene.x_at(t), 0.0, 0.0])
+        return poses, props
+
+    return play(meshcat, float(scene.times[0]), float(scene.times[-1]), frame_at, shown_from, fps=fps, speed=speed)
+
+
+def play(meshcat, t0: float, t_end: float, frame_at, shown_from: dict, *, fps: float, speed: float) -> int:
+    """Set (replacing any) the Meshcat animation from ``t0`` to ``t_end`` [s] at ``speed`` times real time, ``fps``
+    frames a second, played once and held on its last frame: each frame the poses and properties ``frame_at(t)``
+    returns ({path: RigidTransform}, [(path, property, value)]), each marker of ``shown_from`` visible from its time
+    on. Frame 0 is also set as the scene's state. Returns the number of frames."""
+    from pydrake.geometry import MeshcatAnimation
 
     if not (fps > 0 and speed > 0 and math.isfinite(fps) and math.isfinite(speed)):
         raise ValueError(f"fps and speed must be positive, got fps={fps}, speed={speed}")
     animation = MeshcatAnimation(fps)
     animation.set_loop_mode(MeshcatAnimation.LoopMode.kLoopOnce)
     animation.set_clamp_when_finished(True)
-    t0, t_end = float(scene.times[0]), float(scene.times[-1])
     n_frames = int(math.floor((t_end - t0) / speed * fps)) + 2  # the last frame shows the end of the run
     for k in range(n_frames):
         t = min(t0 + k * speed / fps, t_end)
-        poses, props = hopper_at(t)
-        if follow:
-            poses[f"{root}/world"] = RigidTransform([-scene.x_at(t), 0.0, 0.0])
+        poses, props = frame_at(t)
         props = props + [(p, "visible", t >= t_shown) for p, t_shown in shown_from.items()]
         for p, value in poses.items():
             animation.SetTransform(k, p, value)

@@ -26,6 +26,18 @@ OUT_CODE, OUT_TD_X, OUT_TD_Y, OUT_TD_Z, OUT_X, OUT_Y, OUT_Z, OUT_XDOT, OUT_YDOT,
 N_OUT = 12
 
 
+# many parameters: one axis's position, speed, cell index and count, origin and cell size, as scalars
+@compiled(inline="always")
+def cell_exit(position, velocity, index, count, origin, cell):
+    """When a point at ``position`` moving at ``velocity`` along one axis leaves cell ``index`` of ``count`` (inf: it
+    stays, or leaves past the map's last cell, beyond which the map extends flat)."""
+    if velocity > 0.0 and index < count - 1:
+        return (origin + (index + 1) * cell - position) / velocity
+    if velocity < 0.0 and index > 0:
+        return (origin + index * cell - position) / velocity
+    return math.inf
+
+
 # many parameters: a point and its velocity, three coordinates each, as scalars compiled code passes in registers
 @compiled()
 def first_contact(px, py, pz, vx, vy, vz, g, t_max, ground):
@@ -38,18 +50,7 @@ def first_contact(px, py, pz, vx, vy, vz, g, t_max, ground):
         return 0.0, TOP, j, i
     while True:
         h = heights[j, i]
-        if vx > 0.0 and i < nx - 1:
-            t_x = (x0 + (i + 1) * cell - px) / vx
-        elif vx < 0.0 and i > 0:
-            t_x = (x0 + i * cell - px) / vx
-        else:
-            t_x = math.inf
-        if vy > 0.0 and j < ny - 1:
-            t_y = (y0 + (j + 1) * cell - py) / vy
-        elif vy < 0.0 and j > 0:
-            t_y = (y0 + j * cell - py) / vy
-        else:
-            t_y = math.inf
+        t_x, t_y = cell_exit(px, vx, i, nx, x0, cell), cell_exit(py, vy, j, ny, y0, cell)
         t_exit = min(t_x, t_y)
         t_land = (vz + math.sqrt(max(vz * vz + 2.0 * g * (pz - h), 0.0))) / g
         if t_land <= t_exit and t_land <= t_max:

@@ -26,8 +26,8 @@ from matplotlib.colors import to_rgb
 
 from drakeslip.hybrid_hopper import Mode
 from drakeslip.meshcat_replay import BODY_RGB, LEG_RGB, RETRACTED_FRACTION
-from drakeslip.replay_scene import EXECUTED_RGB, FAILURE_RGB, PATH_RGB, PLANNED_RGB, rgba, stroke_mesh, swatch, \
-    text_segments, write_page
+from drakeslip.replay_scene import EXECUTED_RGB, FAILURE_RGB, PATH_RGB, PLANNED_RGB, play, rgba, stroke_mesh, \
+    swatch, text_segments, write_page
 from drakeslip.spatial.dynamics import leg_offset
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.simulation import SimulationResult3D
@@ -186,41 +186,25 @@ def set_view(meshcat, ground: float) -> None:
 
 def animate3d(meshcat, result: SimulationResult3D, shown_from: dict, root: str, *, fps: float, speed: float) -> int:
     """Set (replacing any) the Meshcat animation of the run at ``speed`` times real time, ``fps`` frames a second,
-    played once and held on its last frame: each frame the hopper (body interpolated between the logged samples,
-    the leg of the latest sample's hybrid state), the world slid under the camera by the body's x and y, each
-    marker of ``shown_from`` visible from its time on. Frame 0 is also set as the scene's state. Returns the number
-    of frames."""
-    from pydrake.geometry import MeshcatAnimation
+    played once and held on its last frame (``drakeslip.replay_scene.play``): each frame the hopper (body
+    interpolated between the logged samples, the leg of the latest sample's hybrid state), the world slid under the
+    camera by the body's x and y, each marker of ``shown_from`` visible from its time on. Frame 0 is also set as the
+    scene's state. Returns the number of frames."""
     from pydrake.math import RigidTransform
 
-    if not (fps > 0 and speed > 0 and math.isfinite(fps) and math.isfinite(speed)):
-        raise ValueError(f"fps and speed must be positive, got fps={fps}, speed={speed}")
-    animation = MeshcatAnimation(fps)
-    animation.set_loop_mode(MeshcatAnimation.LoopMode.kLoopOnce)
-    animation.set_clamp_when_finished(True)
     times, states, hopper = result.times, result.states, f"{root}/world/hopper"
     failure_foot = result.failure_event.foot if result.failure_event is not None else None
-    n_frames = int(math.floor((times[-1] - times[0]) / speed * fps)) + 2  # the last frame shows the end of the run
-    for k in range(n_frames):
-        t = min(times[0] + k * speed / fps, times[-1])
+
+    def frame_at(t):
         i = min(int(np.searchsorted(times, t, side="right")) - 1, times.size - 1)
         body = [float(np.interp(t, times, states[:, c])) for c in range(3)]
         leg = leg_vector(body, result.hybrid[i], result.params, failure_foot)
         length = float(np.linalg.norm(leg))
         poses = {f"{root}/world": RigidTransform([-body[0], -body[1], 0.0]), f"{hopper}/body": RigidTransform(body),
                  f"{hopper}/leg": leg_pose(body, leg), f"{hopper}/leg/foot": RigidTransform([0.0, 0.0, -length])}
-        props = [(f"{hopper}/leg/rod", "scale", [1.0, 1.0, length])]
-        props += [(p, "visible", t >= t_shown) for p, t_shown in shown_from.items()]
-        for p, value in poses.items():
-            animation.SetTransform(k, p, value)
-            if k == 0:
-                meshcat.SetTransform(p, value)
-        for p, name, value in props:
-            animation.SetProperty(k, p, name, value)
-            if k == 0:
-                meshcat.SetProperty(p, name, value)
-    meshcat.SetAnimation(animation)
-    return n_frames
+        return poses, [(f"{hopper}/leg/rod", "scale", [1.0, 1.0, length])]
+
+    return play(meshcat, times[0], times[-1], frame_at, shown_from, fps=fps, speed=speed)
 
 
 def draw_replay3d(meshcat, result: SimulationResult3D, planned_footholds=None, *, fps: float = 30.0,

@@ -94,6 +94,18 @@ def clear_of_edges(x, y, level, margin, ground):
 
 
 @compiled(inline="always")
+def foothold_height(x, y, grid, ground):
+    """The ground's height at (x, y) where a foothold may go there (inside the known window, solid, clear of edges
+    by the grid's margin), NaN where not."""
+    if not (grid.x_min <= x < grid.x_max and grid.y_min <= y < grid.y_max):
+        return math.nan
+    h = height_at(x, y, ground)
+    if h <= ground.ditch_height or not clear_of_edges(x, y, h, grid.edge_margin, ground):
+        return math.nan
+    return h
+
+
+@compiled(inline="always")
 def candidates(a, e):
     """The desired footholds (x, y, z) of the grid (cell centres of ``spacing`` from the map's origin) inside the reach
     disk and the known window, on solid ground clear of edges; and their (row, column) on the grid's square around
@@ -110,10 +122,8 @@ def candidates(a, e):
             x, y = ground.x0 + (i0 + di + 0.5) * s, ground.y0 + (j0 + dj + 0.5) * s
             if (x - cx) ** 2 + (y - cy) ** 2 > radius * radius:
                 continue
-            if not (grid.x_min <= x < grid.x_max and grid.y_min <= y < grid.y_max):
-                continue
-            h = height_at(x, y, ground)
-            if h <= ground.ditch_height or not clear_of_edges(x, y, h, grid.edge_margin, ground):
+            h = foothold_height(x, y, grid, ground)
+            if math.isnan(h):
                 continue
             out[k, 0], out[k, 1], out[k, 2] = x, y, h
             where[k, 0], where[k, 1] = dj, di

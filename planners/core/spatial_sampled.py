@@ -12,10 +12,9 @@ from collections import namedtuple
 import numpy as np
 
 from drakeslip.compiled import compiled
-from drakeslip.spatial.dynamics import height_at
 
 from planners.core.clock import MODEL, now
-from planners.core.spatial_grid import NO_STATE, children_from, clear_of_edges, fly_candidates
+from planners.core.spatial_grid import NO_STATE, children_from, fly_candidates, foothold_height
 from planners.core.spatial_model import cell_points, logits_of, node_view
 
 # The expansion: Step-space's grid settings (its margins, tolerance, window; not its spacing), the map, the hopper,
@@ -57,10 +56,8 @@ def sampled_candidates(a, logits, e):
         first = k
         for q in range(points.shape[0]):
             x, y = points[q, 0], points[q, 1]
-            if not (grid.x_min <= x < grid.x_max and grid.y_min <= y < grid.y_max):
-                continue
-            h = height_at(x, y, ground)
-            if h <= ground.ditch_height or not clear_of_edges(x, y, h, grid.edge_margin, ground):
+            h = foothold_height(x, y, grid, ground)
+            if math.isnan(h):
                 continue
             out[k, 0], out[k, 1], out[k, 2] = x, y, h
             k += 1
