@@ -32,6 +32,7 @@ from drakeslip.spatial.stepmap import step3d
 from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
 from drakeslip.units import units_of
 
+from planners.core.spatial_tree import SpatialTarget, crosses
 from planners.replanning import GOAL_SIGMAS, ClosedLoopConfig, case_result, case_seed, drawn_hopper
 from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE
 
@@ -49,13 +50,13 @@ class MapCase:
 
 
 def passes_goal(foothold, start, goal, radius: float) -> bool:
-    """Whether ``foothold`` crossed the goal's line (across the way from ``start`` to the goal) within ``radius`` of
-    the goal: the case's success, the test a plan's last foothold passes."""
+    """Whether ``foothold`` landed within ``radius`` of the goal or crossed its line (across the way from ``start`` to
+    the goal) within ``radius`` of it: the case's success, the test a plan's last foothold passes
+    (``planners.core.spatial_tree.crosses``)."""
     hx, hy = goal[0] - start[0], goal[1] - start[1]
     norm = math.hypot(hx, hy) or 1.0
-    hx, hy = hx / norm, hy / norm
-    dx, dy = foothold[0] - goal[0], foothold[1] - goal[1]
-    return dx * hx + dy * hy >= 0 and abs(dy * hx - dx * hy) <= radius
+    return crosses(float(foothold[0]), float(foothold[1]),
+                   SpatialTarget(float(goal[0]), float(goal[1]), hx / norm, hy / norm, float(radius), float(radius)))
 
 
 def past_goal(start, goal, margin: float) -> tuple:

@@ -63,6 +63,22 @@ def test_a_plan_goes_round_what_it_cannot_cross(step_planner):
     assert plan.footholds[-1, 0] >= plan.target_x
 
 
+@pytest.mark.parametrize("label", ["step", "lstm-guided", "heuristic"])
+def test_beside_the_goal_a_plan_lands_within_its_radius(label):
+    """The body 0.6 m from the goal, 0.45 m beside the path, on a ledge along the path that ends 0.5 m past the
+    goal: the line across the way from the body to the goal is turned 48 degrees, and no foothold on the ledge
+    passes it, but footholds within the goal's radius do, and the loop counts them as the goal reached."""
+    cell, x0, y0 = 0.05, 8.0, -1.0
+    x, y = x0 + (np.arange(80) + 0.5) * cell, y0 + (np.arange(50) + 0.5) * cell
+    h = np.full((50, 80), np.nan)
+    h[np.ix_(np.abs(y - 0.45) < 0.2, x < 10.5)] = 0.0
+    goal = (10.0, 0.0)
+    plan = planners.make(label).plan((9.6, 0.45, 0.9, 1.5, 0.0), HeightMap(h, cell, (x0, y0)), goal, P)
+    assert plan.success, plan.message
+    assert math.dist(plan.footholds[-1][:2], goal) <= 0.5
+    assert passes_goal(plan.footholds[-1], START, goal, 0.5)
+
+
 def test_a_robust_plan_s_hops_survive_every_particle():
     """``step@robust`` on a map: every hop of its plan, flown from the apex the plan has there by each of the robust
     check's particles (the apex told off, the leg off, another spring, mass and friction), lands on its foothold's

@@ -13,9 +13,9 @@ import numpy as np
 from drakeslip.compiled import compiled
 from planners.core.tree import CAPACITY, Tree, heap_push, reserve
 
-# Where a search on a height map goes: a goal's foothold lies past the line through (x, y) across the ``heading``
-# (hx, hy) (a unit vector) and within ``half_width`` of (x, y) along it
-SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width"])
+# Where a search on a height map goes: a goal's foothold lies within ``radius`` of (x, y), or past the line through it
+# across the ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``crosses``)
+SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width", "radius"])
 # the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
 SpatialScoring = namedtuple("SpatialScoring", ["target_x", "target_y", "progress", "speed", "isolation"])
 ANGLES, FOOTHOLD, APEX = 2, 3, 5   # the widths of a node's leg command, foothold and apex
@@ -60,11 +60,21 @@ def add_children(tree, size, node, children, frontier):
     return tree, size + k, frontier
 
 
+@compiled()
+def crosses(fx, fy, target):
+    """Whether a foothold at (fx, fy) reaches ``target`` (a ``SpatialTarget``): within its radius, or past its line
+    within its half width. The disk keeps the test sound when the body is beside or past the goal, where a line
+    across the way from the body to the goal would turn with every centimetre the body moves."""
+    dx, dy = fx - target.x, fy - target.y
+    if dx * dx + dy * dy <= target.radius * target.radius:
+        return True
+    return dx * target.hx + dy * target.hy >= 0.0 and abs(dy * target.hx - dx * target.hy) <= target.half_width
+
+
 @compiled(inline="always")
 def passes(tree, node, target):
-    """Whether ``node``'s foothold crossed the target's line within its half width: the search's goal test."""
-    dx, dy = tree.foothold[node, 0] - target.x, tree.foothold[node, 1] - target.y
-    return dx * target.hx + dy * target.hy >= 0.0 and abs(dy * target.hx - dx * target.hy) <= target.half_width
+    """Whether ``node``'s foothold reaches the target (``crosses``): the search's goal test."""
+    return crosses(tree.foothold[node, 0], tree.foothold[node, 1], target)
 
 
 @compiled()

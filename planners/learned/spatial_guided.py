@@ -17,8 +17,8 @@ from planners.base import Budget, Plan
 from planners.checkpoints import SPATIAL_WEIGHTS
 from planners.core.spatial_model import view_of
 from planners.core.spatial_sampled import SpatialSampledExpansion
-from planners.search.spatial_problem import SpatialProblem, reached, spatial_problem
-from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings, already_there,
+from planners.search.spatial_problem import SpatialProblem, spatial_problem
+from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings,
                                           grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
 
 
@@ -72,8 +72,6 @@ def plan_on_map(planner, apex, height_map, goal, params, widths, grid_fallback: 
     if not Path(model_path).is_file():
         raise ValueError(f"the {planner.name!r} planner's map model {model_path} does not exist")
     problem = spatial_problem(apex, height_map, goal, params, planner.horizon, t0, budget.max_time_s)
-    if reached(problem):
-        return already_there(problem, planner.name)
     settings = SpatialStepSettings(getattr(planner, "spacing", None), None, getattr(planner, "tolerance", None),
                                    getattr(planner, "edge_margin", None), getattr(planner, "min_speed", None),
                                    robustness=getattr(planner, "robustness", None),

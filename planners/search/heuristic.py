@@ -13,8 +13,7 @@ from drakeslip import SlipParams
 from planners.base import FootstepSequence, Plan, Planner, Problem
 from planners.search.gait import interpolate, neutral_gait
 from planners.search.spatial_heuristic import plan_heuristic
-from planners.search.spatial_problem import reached, spatial_problem
-from planners.search.spatial_step import already_there
+from planners.search.spatial_problem import spatial_problem
 from planners.search.tree import clear_of_edges
 
 EDGE_MARGIN, MAX_SHIFT = 0.03, 0.4       # [m] the planner's defaults for the paper's hopper
@@ -44,8 +43,6 @@ class HeuristicPlanner(Planner):
         toward the target, snapped to the nearest safe cell."""
         t0 = time.perf_counter()
         problem = spatial_problem(apex, height_map, goal, params, self.horizon, t0, self.budget.max_time_s)
-        if reached(problem):
-            return already_there(problem, self.name)
         units = problem.units
         plan = plan_heuristic(problem, units.length_or(self.edge_margin, EDGE_MARGIN),
                               units.length_or(self.max_shift, MAX_SHIFT), self.name)

@@ -17,6 +17,7 @@ from drakeslip.terrain import LEVEL_TOLERANCE
 from drakeslip.units import units_of
 
 from planners.base import FootstepSequence, Plan
+from planners.core.spatial_tree import crosses
 from planners.search.gait import interpolate, neutral_gait
 from planners.search.spatial_problem import SpatialProblem
 
@@ -91,7 +92,7 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
     speed = math.hypot(vx, vy)
     heading = math.atan2(vy, vx)
     tx, ty = problem.target
-    hx, hy = problem.heading
+    reach = problem.reach
     footholds = []
     m = problem.height_map
     for _ in range(MAX_HOPS):
@@ -119,8 +120,7 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
         # less the foothold's lead on it, past the foothold
         beyond = interpolate(advance_table, speed, z - fz) - ahead
         x, y = spot[0] + beyond * math.cos(heading), spot[1] + beyond * math.sin(heading)
-        if (spot[0] - tx) * hx + (spot[1] - ty) * hy >= 0 and abs((spot[1] - ty) * hx - (spot[0] - tx) * hy) \
-                <= problem.half_width:
+        if crosses(spot[0], spot[1], reach):
             break
     n = len(footholds)   # the controller picks the angles when the plan is flown; the gait only guesses the apexes
     seq = FootstepSequence(np.array(footholds).reshape(-1, 3), np.full((n, 2), np.nan), np.full((n, 5), np.nan))

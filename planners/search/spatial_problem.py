@@ -2,9 +2,12 @@
 
 The goal is a point (x, y). The footholds stay in the known window: the map's cells (all of them for a map; a
 perception window's own) within ``horizon`` of the body. When the goal lies beyond the horizon the target is the
-point TARGET_MARGIN short of it on the way from the body to the goal; a sequence reaches the target when a foothold
-crosses the line through it across that way, within ``half_width`` of it (GOAL_RADIUS of the goal itself, the window's
-half width of a target on the way, where the plan may go round what lies between)."""
+point TARGET_MARGIN short of it on the way from the body to the goal. A sequence reaches the goal when a foothold lands
+within GOAL_RADIUS of it or crosses the line through it across the way, within GOAL_RADIUS of it; it reaches a target
+on the way when a foothold crosses that target's line within the window's half width (the plan may go round what lies
+between). The way is the direction from the body to the goal, or the body's own heading once it is within GOAL_RADIUS
+of the goal, where the direction to the goal turns with every centimetre the body moves
+(``planners.core.spatial_tree.crosses``)."""
 from __future__ import annotations
 
 import math
@@ -18,6 +21,7 @@ from drakeslip.terrain import WINDOW_AHEAD
 from drakeslip.units import HopperUnits, units_of
 
 from planners.base import TARGET_MARGIN, Timing
+from planners.core.spatial_tree import SpatialTarget
 
 GOAL_RADIUS = 0.5   # [m] a plan that reaches the goal ends this close to it, across the way (paper's hopper's lengths)
 WINDOW_ASIDE = 2.0  # [m] the perception window reaches this far to either side of the body (paper's hopper's)
@@ -26,8 +30,9 @@ WINDOW_ASIDE = 2.0  # [m] the perception window reaches this far to either side 
 @dataclass(frozen=True)
 class SpatialProblem:
     """One planning query on a height map: the apex (x, y, z, xdot, ydot), the map, the goal (x, y), the hopper, the
-    known window (x_min, x_max, y_min, y_max) the footholds stay in, the target (x, y), the unit heading from the
-    body to it, the half width of the target's line, and the deadline."""
+    known window (x_min, x_max, y_min, y_max) the footholds stay in, the target (x, y), the way to it (a unit
+    heading), the half width of the target's line, the radius of its disk (0 for a target on the way), and the
+    deadline."""
 
     apex: tuple
     height_map: HeightMap
@@ -38,6 +43,7 @@ class SpatialProblem:
     target: tuple
     heading: tuple
     half_width: float
+    radius: float
     deadline: float
     timing: Timing = field(default_factory=Timing)
 
@@ -45,6 +51,12 @@ class SpatialProblem:
     def target_x(self) -> float:
         """The target's x (a Plan's ``target_x``; ``target`` holds both coordinates)."""
         return self.target[0]
+
+    @property
+    def reach(self) -> SpatialTarget:
+        """What a foothold must reach (``planners.core.spatial_tree.crosses``)."""
+        return SpatialTarget(float(self.target[0]), float(self.target[1]), float(self.heading[0]),
+                             float(self.heading[1]), float(self.half_width), float(self.radius))
 
 
 def check_goal(goal) -> tuple:
@@ -78,21 +90,15 @@ def spatial_problem(apex, height_map: HeightMap, goal, params: SlipParams | None
         x_min, x_max, y_min, y_max = height_map.extent
         window = (max(window[0], x_min), min(window[1], x_max), max(window[2], y_min), min(window[3], y_max))
     dx, dy = goal[0] - x, goal[1] - y
-    distance = math.hypot(dx, dy)
-    heading = (dx / distance, dy / distance) if distance > 0 else (apex[3], apex[4])
+    distance, radius = math.hypot(dx, dy), GOAL_RADIUS * units.length
+    heading = (dx, dy) if distance > radius else (apex[3], apex[4])
     norm = math.hypot(*heading)
     heading = (heading[0] / norm, heading[1] / norm)
     if distance <= horizon - margin:
-        target, half_width = goal, GOAL_RADIUS * units.length
+        target, half_width = goal, radius
     else:
         reach = horizon - margin
-        target, half_width = (x + reach * heading[0], y + reach * heading[1]), WINDOW_ASIDE * units.length
-    return SpatialProblem(apex, height_map, goal, params, units, window, target, heading, half_width,
+        target, half_width, radius = ((x + reach * heading[0], y + reach * heading[1]), WINDOW_ASIDE * units.length,
+                                      0.0)
+    return SpatialProblem(apex, height_map, goal, params, units, window, target, heading, half_width, radius,
                           t0 + max_time_s)
-
-
-def reached(problem: SpatialProblem) -> bool:
-    """Whether the body is already past the goal's line near the goal."""
-    dx, dy = problem.apex[0] - problem.goal[0], problem.apex[1] - problem.goal[1]
-    hx, hy = problem.heading
-    return problem.target == problem.goal and dx * hx + dy * hy >= 0 and abs(dy * hx - dx * hy) <= problem.half_width

@@ -22,9 +22,9 @@ from drakeslip.params import SlipParams
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.stepmap import step_batch3d
 
-from planners.base import Budget, FootstepSequence, Plan
+from planners.base import Budget, Plan
 from planners.core.spatial_grid import NO_STATE, RobustParticles, SpatialExpansion, SpatialGrid
-from planners.core.spatial_tree import SpatialScoring, SpatialTarget
+from planners.core.spatial_tree import SpatialScoring
 from planners.search.loop import search
 from planners.search.spatial_problem import SpatialProblem
 from planners.search.robust import Robustness
@@ -115,11 +115,6 @@ def scoring_of(problem: SpatialProblem, weights: CostWeights) -> SpatialScoring:
                           float(weights.speed * problem.units.time), float(weights.isolation))
 
 
-def target_of(problem: SpatialProblem) -> SpatialTarget:
-    return SpatialTarget(float(problem.target[0]), float(problem.target[1]), float(problem.heading[0]),
-                         float(problem.heading[1]), float(problem.half_width))
-
-
 @functools.cache
 def warm_up() -> None:
     """Load the compiled spatial step map once per process, so start-up is not charged to a plan's time."""
@@ -156,12 +151,8 @@ def run_searches(problem: SpatialProblem, searches, settings: SpatialStepSetting
     tried = Attempts(name, problem.target_x, settings.safe_hops, target_y=problem.target[1])
     for label, expansion in searches:
         with compiling():
-            result = search(problem, expansion, NO_STATE, settings.n_sequences, budget, target_of(problem))
+            result = search(problem, expansion, NO_STATE, settings.n_sequences, budget, problem.reach)
         if tried.ended(label, result):
             break
     return tried.plan(), result.tree
 
-
-def already_there(problem: SpatialProblem, name: str) -> Plan:
-    return Plan(name, True, problem.target_x, message="already past the goal", target_y=problem.target[1],
-                sequences=[FootstepSequence(np.zeros((0, 3)), np.zeros((0, 2)), np.zeros((0, 5)))])

@@ -23,8 +23,8 @@ from planners.search.pruned import pruned_search
 from planners.core.robust import no_check
 from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
-from planners.search.spatial_problem import reached, spatial_problem
-from planners.search.spatial_step import SpatialStepSettings, already_there, plan_step_space
+from planners.search.spatial_problem import spatial_problem
+from planners.search.spatial_step import SpatialStepSettings, plan_step_space
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
                                   Attempts, CostWeights, SearchResult)
 
@@ -130,8 +130,6 @@ class StepSpacePlanner(Planner):
         if self.step_map != "fast":
             raise ValueError(f"the {self.name!r} planner plans on a height map without step_map='drake'")
         problem = spatial_problem(apex, height_map, goal, params, self.horizon, t0, self.budget.max_time_s)
-        if reached(problem):
-            return already_there(problem, self.name)
         settings = SpatialStepSettings(self.spacing, self.fallback_spacing, self.tolerance, self.edge_margin,
                                        self.min_speed, self.cost_weights, self.n_sequences,
                                        robustness=self.robustness, fallback_nominal=self.fallback_nominal,
