@@ -27,7 +27,7 @@ def test_bench_one_plan(benchmark, controller, label):
                                 footholds=len(plan.footholds), timing=plan.timing)
 
 
-@pytest.mark.parametrize("label", ["heuristic", "step", "lstm", "lstm-guided"])
+@pytest.mark.parametrize("label", ["heuristic", "step", "step@robust", "lstm", "lstm-guided", "lstm-guided@robust"])
 def test_bench_one_plan_on_a_height_map(benchmark, controller, label):
     """Each label that plans on height maps, one plan over a stairs map's 8 m window toward a goal 10 m ahead."""
     from drakeslip.spatial.families import height_map_family
