@@ -1,5 +1,5 @@
 """The receding-horizon loop on a height map (``planners.closed_loop`` in the plane): perceive the window ahead,
-plan, fly the plan's first footholds, replan from the apex reached; until a foothold passes the goal, a failure, no
+plan, fly the plan's first footholds, replan from the apex reached; until a foothold reaches the goal, a failure, no
 plan (a plan's safe hops are flown where it found no sequence: ``Plan.to_fly``), or the hop cap.
 
 On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.hybrid_hopper.ApexPolicy``)
@@ -13,8 +13,9 @@ the controller aims from the apex told, the leg reaches the commanded angles plu
 the executed hopper (the model with the case's spring, mass and friction errors) on the true map. As in the plane,
 every draw comes from one generator per case (``case_seed``): first the executed hopper, then per planning call the
 apex errors of its hops, their leg-angle errors and the sensed window. The robot aims GOAL_SIGMAS standard deviations
-of x past the goal, believes it is past when a foothold it aims at passes that, and succeeds when the foothold it
-reached passes the goal.
+of x past the goal, believes it is there when a foothold it aims at reaches that point as its plan's search asked
+(``passes_goal``: within GOAL_RADIUS, or past its line across the way from the apex the plan was made from), and
+succeeds when the foothold it reached reaches the goal in the same way.
 """
 from __future__ import annotations
 
@@ -32,9 +33,9 @@ from drakeslip.spatial.stepmap import step3d
 from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
 from drakeslip.units import units_of
 
-from planners.core.spatial_tree import SpatialTarget, crosses
+from planners.core.spatial_tree import crosses
 from planners.replanning import GOAL_SIGMAS, ClosedLoopConfig, case_result, case_seed, drawn_hopper
-from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE
+from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE, goal_reach
 
 MAP_LOOP_BACKENDS = ("drake", "fast")
 
@@ -49,14 +50,11 @@ class MapCase:
     goal: tuple
 
 
-def passes_goal(foothold, start, goal, radius: float) -> bool:
-    """Whether ``foothold`` landed within ``radius`` of the goal or crossed its line (across the way from ``start`` to
-    the goal) within ``radius`` of it: the case's success, the test a plan's last foothold passes
-    (``planners.core.spatial_tree.crosses``)."""
-    hx, hy = goal[0] - start[0], goal[1] - start[1]
-    norm = math.hypot(hx, hy) or 1.0
-    return crosses(float(foothold[0]), float(foothold[1]),
-                   SpatialTarget(float(goal[0]), float(goal[1]), hx / norm, hy / norm, float(radius), float(radius)))
+def passes_goal(foothold, body, goal, radius: float) -> bool:
+    """Whether ``foothold`` reaches the goal for a plan made from ``body`` (x, ...): within ``radius`` of it, or past
+    its line across the way from the body within ``radius`` of it (``planners.search.spatial_problem.goal_reach``,
+    the test the plan's search made): the case's success."""
+    return crosses(float(foothold[0]), float(foothold[1]), goal_reach(body, goal, radius))
 
 
 def past_goal(start, goal, margin: float) -> tuple:
@@ -85,6 +83,7 @@ class MapLoop:
         # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
         self.aim = past_goal(case.apex, case.goal, GOAL_SIGMAS * self.noise.apex[0])
         self.plans, self.queue, self.failure, self.done = [], [], None, False
+        self.planned_from = case.apex   # the apex the current plan was made from, as the robot was told it
         self.hops, self.flown = 0, 0   # hops in all, and of the current plan
         self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
 
@@ -107,7 +106,7 @@ class MapLoop:
         target = self.queue.pop(0)
         self.plans[-1]["executed"].append([float(v) for v in target])
         self.hops, self.flown = self.hops + 1, self.flown + 1
-        if passes_goal(target, self.case.apex, self.aim, self.radius):
+        if passes_goal(target, self.planned_from, self.aim, self.radius):
             self.done = True   # this hop lands past the goal: the run ends at the apex after it
         try:
             angles = leg_angles_for(self.told(apex, self.flown - 1), target, self.params)
@@ -125,6 +124,7 @@ class MapLoop:
             self.apex_errors = apex_errors3d(self.noise, self.rng, k)
             self.angle_errors = angle_errors3d(self.noise, self.rng, k)
         seen, goal = self.told(apex, 0), self.aim
+        self.planned_from = seen
         window = self.case.terrain.perceived(seen[0], seen[1], (goal[0] - seen[0], goal[1] - seen[1]), self.ahead,
                                              self.aside, self.behind)
         if not self.noise.silent:
@@ -176,7 +176,8 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
     if failure is None and not loop.done:
         failure = "STOPPED_SHORT"
     noisy = not loop.noise.silent
-    if failure is None and noisy and (reached is None or not passes_goal(reached, case.apex, case.goal, loop.radius)):
+    if failure is None and noisy and (reached is None
+                                      or not passes_goal(reached, loop.planned_from, case.goal, loop.radius)):
         failure = "STOPPED_SHORT"   # the robot believed a foothold passed the goal; the one it reached did not
     result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
     result["final"] = [float(final[0]), float(final[1])]

@@ -72,11 +72,24 @@ def test_beside_the_goal_a_plan_lands_within_its_radius(label):
     x, y = x0 + (np.arange(80) + 0.5) * cell, y0 + (np.arange(50) + 0.5) * cell
     h = np.full((50, 80), np.nan)
     h[np.ix_(np.abs(y - 0.45) < 0.2, x < 10.5)] = 0.0
-    goal = (10.0, 0.0)
-    plan = planners.make(label).plan((9.6, 0.45, 0.9, 1.5, 0.0), HeightMap(h, cell, (x0, y0)), goal, P)
+    goal, body = (10.0, 0.0), (9.6, 0.45, 0.9, 1.5, 0.0)
+    plan = planners.make(label).plan(body, HeightMap(h, cell, (x0, y0)), goal, P)
     assert plan.success, plan.message
     assert math.dist(plan.footholds[-1][:2], goal) <= 0.5
-    assert passes_goal(plan.footholds[-1], START, goal, 0.5)
+    assert passes_goal(plan.footholds[-1], body, goal, 0.5)
+
+
+@pytest.mark.parametrize("label", ["step", "lstm-guided"])
+def test_within_the_goal_s_radius_a_plan_lands_inside_it(label):
+    """From a body 0.22 m from the goal, running off to the side, no line through the goal is the way: a foothold
+    reaches the goal only within its radius."""
+    goal, body = (10.0, 0.0), (10.14, -0.22, 0.55, 2.7, -1.7)
+    plan = planners.make(label).plan(body, HeightMap.flat(), goal, P)
+    assert plan.success, plan.message
+    assert math.dist(plan.footholds[-1][:2], goal) <= 0.5
+    assert passes_goal(plan.footholds[-1], body, goal, 0.5)
+    # past the goal across the way from the start, but not within the radius: not for a plan made from the body
+    assert passes_goal((10.6, -0.3), START, goal, 0.5) and not passes_goal((10.6, -0.3), body, goal, 0.5)
 
 
 def test_a_robust_plan_s_hops_survive_every_particle():

@@ -14,7 +14,8 @@ from drakeslip.compiled import compiled
 from planners.core.tree import CAPACITY, Tree, heap_push, reserve
 
 # Where a search on a height map goes: a goal's foothold lies within ``radius`` of (x, y), or past the line through it
-# across the ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``crosses``)
+# across the ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``crosses``; a negative half width: no
+# line, the disk alone)
 SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width", "radius"])
 # the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
 SpatialScoring = namedtuple("SpatialScoring", ["target_x", "target_y", "progress", "speed", "isolation"])

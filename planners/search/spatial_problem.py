@@ -3,11 +3,10 @@
 The goal is a point (x, y). The footholds stay in the known window: the map's cells (all of them for a map; a
 perception window's own) within ``horizon`` of the body. When the goal lies beyond the horizon the target is the
 point TARGET_MARGIN short of it on the way from the body to the goal. A sequence reaches the goal when a foothold lands
-within GOAL_RADIUS of it or crosses the line through it across the way, within GOAL_RADIUS of it; it reaches a target
-on the way when a foothold crosses that target's line within the window's half width (the plan may go round what lies
-between). The way is the direction from the body to the goal, or the body's own heading once it is within GOAL_RADIUS
-of the goal, where the direction to the goal turns with every centimetre the body moves
-(``planners.core.spatial_tree.crosses``)."""
+within GOAL_RADIUS of it or crosses the line through it across the way from the body, within GOAL_RADIUS of it
+(``goal_reach``: only the first for a body already within GOAL_RADIUS of the goal); it reaches a target on the way
+when a foothold crosses that target's line within the window's half width of it (the plan may go round what lies
+between; ``planners.core.spatial_tree.crosses``)."""
 from __future__ import annotations
 
 import math
@@ -30,9 +29,8 @@ WINDOW_ASIDE = 2.0  # [m] the perception window reaches this far to either side 
 @dataclass(frozen=True)
 class SpatialProblem:
     """One planning query on a height map: the apex (x, y, z, xdot, ydot), the map, the goal (x, y), the hopper, the
-    known window (x_min, x_max, y_min, y_max) the footholds stay in, the target (x, y), the way to it (a unit
-    heading), the half width of the target's line, the radius of its disk (0 for a target on the way), and the
-    deadline."""
+    known window (x_min, x_max, y_min, y_max) the footholds stay in, the target (x, y), what a foothold must reach
+    (module doc), and the deadline."""
 
     apex: tuple
     height_map: HeightMap
@@ -41,9 +39,7 @@ class SpatialProblem:
     units: HopperUnits
     window: tuple
     target: tuple
-    heading: tuple
-    half_width: float
-    radius: float
+    reach: SpatialTarget
     deadline: float
     timing: Timing = field(default_factory=Timing)
 
@@ -51,12 +47,6 @@ class SpatialProblem:
     def target_x(self) -> float:
         """The target's x (a Plan's ``target_x``; ``target`` holds both coordinates)."""
         return self.target[0]
-
-    @property
-    def reach(self) -> SpatialTarget:
-        """What a foothold must reach (``planners.core.spatial_tree.crosses``)."""
-        return SpatialTarget(float(self.target[0]), float(self.target[1]), float(self.heading[0]),
-                             float(self.heading[1]), float(self.half_width), float(self.radius))
 
 
 def check_goal(goal) -> tuple:
@@ -90,15 +80,23 @@ def spatial_problem(apex, height_map: HeightMap, goal, params: SlipParams | None
         x_min, x_max, y_min, y_max = height_map.extent
         window = (max(window[0], x_min), min(window[1], x_max), max(window[2], y_min), min(window[3], y_max))
     dx, dy = goal[0] - x, goal[1] - y
-    distance, radius = math.hypot(dx, dy), GOAL_RADIUS * units.length
-    heading = (dx, dy) if distance > radius else (apex[3], apex[4])
-    norm = math.hypot(*heading)
-    heading = (heading[0] / norm, heading[1] / norm)
+    distance = math.hypot(dx, dy)
     if distance <= horizon - margin:
-        target, half_width = goal, radius
+        target, reach = goal, goal_reach((x, y), goal, GOAL_RADIUS * units.length)
     else:
-        reach = horizon - margin
-        target, half_width, radius = ((x + reach * heading[0], y + reach * heading[1]), WINDOW_ASIDE * units.length,
-                                      0.0)
-    return SpatialProblem(apex, height_map, goal, params, units, window, target, heading, half_width, radius,
-                          t0 + max_time_s)
+        hx, hy, ahead = dx / distance, dy / distance, horizon - margin
+        target = (x + ahead * hx, y + ahead * hy)
+        reach = SpatialTarget(float(target[0]), float(target[1]), hx, hy, WINDOW_ASIDE * units.length, 0.0)
+    return SpatialProblem(apex, height_map, goal, params, units, window, target, reach, t0 + max_time_s)
+
+
+def goal_reach(body, goal, radius: float) -> SpatialTarget:
+    """What a foothold must reach for a plan from ``body`` (x, y) to reach ``goal`` (module doc): land within
+    ``radius`` of it, or cross its line across the way from the body within ``radius`` of it; from a body within
+    ``radius`` of the goal, only the first (the way from there is no way: it turns as the body moves). The plan's
+    search and the loop that flies it ask the same (``planners.spatial_loop.passes_goal``)."""
+    dx, dy = goal[0] - body[0], goal[1] - body[1]
+    distance = math.hypot(dx, dy)
+    if distance <= radius:
+        return SpatialTarget(float(goal[0]), float(goal[1]), 1.0, 0.0, -1.0, float(radius))
+    return SpatialTarget(float(goal[0]), float(goal[1]), dx / distance, dy / distance, float(radius), float(radius))
