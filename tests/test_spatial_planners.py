@@ -92,6 +92,13 @@ def test_within_the_goal_s_radius_a_plan_lands_inside_it(label):
     assert passes_goal((10.6, -0.3), START, goal, 0.5) and not passes_goal((10.6, -0.3), body, goal, 0.5)
 
 
+def test_the_heuristic_says_so_when_its_gait_misses_the_goal():
+    """Near the goal and running off to the side, the gait turns too slowly to land within the goal's radius: it
+    leaves the window, and the plan says so instead of ending at the window's edge as if it had arrived."""
+    plan = planners.make("heuristic").plan((10.14, -0.22, 0.55, 2.7, -1.7), HeightMap.flat(), (10.0, 0.0), P)
+    assert not plan.success and "without reaching the goal" in plan.message, plan.message
+
+
 def test_a_robust_plan_s_hops_survive_every_particle():
     """``step@robust`` on a map: every hop of its plan, flown from the apex the plan has there by each of the robust
     check's particles (the apex told off, the leg off, another spring, mass and friction), lands on its foothold's

@@ -108,11 +108,12 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
                         message=f"no plan found: no gait at {speed:.2f} m/s from {z:.2f} m")
         spot = snapped(problem, fx, fy, edge_margin, max_shift)
         if spot is None:
-            if footholds and not (problem.window[0] <= fx < problem.window[1]
-                                  and problem.window[2] <= fy < problem.window[3]):
-                break   # the gait runs out of the perception window: the plan goes up to its edge
-            return Plan(name, False, problem.target_x, target_y=ty,
-                        message=f"no plan found: no safe foothold within {max_shift:g} m of ({fx:.2f}, {fy:.2f})")
+            outside = not (problem.window[0] <= fx < problem.window[1] and problem.window[2] <= fy < problem.window[3])
+            if footholds and outside and problem.target != problem.goal:
+                break   # the gait runs out of the perception window before a target on the way: up to its edge
+            why = (f"the gait leaves the window at ({fx:.2f}, {fy:.2f}) without reaching the goal" if outside else
+                   f"no safe foothold within {max_shift:g} m of ({fx:.2f}, {fy:.2f})")
+            return Plan(name, False, problem.target_x, target_y=ty, message=f"no plan found: {why}")
         fz = float(m.height_at(*spot))
         footholds.append((spot[0], spot[1], fz))
         heading += turn
@@ -122,6 +123,9 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
         x, y = spot[0] + beyond * math.cos(heading), spot[1] + beyond * math.sin(heading)
         if crosses(spot[0], spot[1], reach):
             break
+    else:
+        return Plan(name, False, problem.target_x, target_y=ty,
+                    message=f"no plan found: the gait goes in circles ({MAX_HOPS} hops without reaching the target)")
     n = len(footholds)   # the controller picks the angles when the plan is flown; the gait only guesses the apexes
     seq = FootstepSequence(np.array(footholds).reshape(-1, 3), np.full((n, 2), np.nan), np.full((n, 5), np.nan))
     return Plan(name, True, problem.target_x, sequences=[seq], target_y=ty)
