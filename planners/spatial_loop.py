@@ -13,9 +13,9 @@ the controller aims from the apex told, the leg reaches the commanded angles plu
 the executed hopper (the model with the case's spring, mass and friction errors) on the true map. As in the plane,
 every draw comes from one generator per case (``case_seed``): first the executed hopper, then per planning call the
 apex errors of its hops, their leg-angle errors and the sensed window. The robot aims GOAL_SIGMAS standard deviations
-of x past the goal, believes it is there when a foothold it aims at reaches that point as its plan's search asked
-(``passes_goal``: within GOAL_RADIUS, or past its line across the way from the apex the plan was made from), and
-succeeds when the foothold it reached reaches the goal in the same way.
+of x past the goal, believes it is there when a foothold it aims at reaches that point (``MapLoop.reaches``: as the
+plan's search asked, or past its line across the way from the start within GOAL_RADIUS of it), and succeeds when the
+foothold it reached reaches the goal in the same way.
 """
 from __future__ import annotations
 
@@ -87,6 +87,14 @@ class MapLoop:
         self.hops, self.flown = 0, 0   # hops in all, and of the current plan
         self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
 
+    def reaches(self, foothold, goal) -> bool:
+        """Whether ``foothold`` reaches ``goal`` as the current plan's search asked (``passes_goal`` from the apex it
+        was made from), or crosses the goal's line across the way from the case's start within GOAL_RADIUS of it:
+        the finish line a robot that overshoots a goal beside it still crosses, from where a plan's way points
+        back."""
+        return (passes_goal(foothold, self.planned_from, goal, self.radius)
+                or passes_goal(foothold, self.case.apex, goal, self.radius))
+
     def told(self, apex, hop: int) -> tuple:
         """The apex the robot is told at the current plan's ``hop``: the true one plus its drawn error."""
         if self.apex_errors is None:
@@ -106,7 +114,7 @@ class MapLoop:
         target = self.queue.pop(0)
         self.plans[-1]["executed"].append([float(v) for v in target])
         self.hops, self.flown = self.hops + 1, self.flown + 1
-        if passes_goal(target, self.planned_from, self.aim, self.radius):
+        if self.reaches(target, self.aim):
             self.done = True   # this hop lands past the goal: the run ends at the apex after it
         try:
             angles = leg_angles_for(self.told(apex, self.flown - 1), target, self.params)
@@ -177,7 +185,7 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
         failure = "STOPPED_SHORT"
     noisy = not loop.noise.silent
     if failure is None and noisy and (reached is None
-                                      or not passes_goal(reached, loop.planned_from, case.goal, loop.radius)):
+                                      or not loop.reaches(reached, case.goal)):
         failure = "STOPPED_SHORT"   # the robot believed a foothold passed the goal; the one it reached did not
     result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
     result["final"] = [float(final[0]), float(final[1])]

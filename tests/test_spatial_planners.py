@@ -11,7 +11,7 @@ from drakeslip.spatial.families import height_map_family
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.stepmap import step3d
 from planners.replanning import ClosedLoopConfig
-from planners.spatial_loop import MapCase, passes_goal, run_map_case
+from planners.spatial_loop import MapCase, MapLoop, passes_goal, run_map_case
 
 P = ds.SlipParams()
 START = (-1.0, 0.0, 0.9, 1.5, 0.0)
@@ -90,6 +90,15 @@ def test_within_the_goal_s_radius_a_plan_lands_inside_it(label):
     assert passes_goal(plan.footholds[-1], body, goal, 0.5)
     # past the goal across the way from the start, but not within the radius: not for a plan made from the body
     assert passes_goal((10.6, -0.3), START, goal, 0.5) and not passes_goal((10.6, -0.3), body, goal, 0.5)
+
+
+def test_the_loop_counts_the_finish_line_from_the_start_as_well_as_the_plan_s_own_test(step_planner):
+    """A robot past a goal beside its path plans (from within the goal's radius) for the goal's disk alone; a foothold
+    it lands beyond the disk but past the goal's line across the way from the start has still crossed the finish."""
+    loop = MapLoop(step_planner, MapCase("flat", HeightMap.flat(), START, (10.0, 0.0)), P, ClosedLoopConfig())
+    loop.planned_from = (10.3, 0.1, 0.9, 2.0, 0.0)
+    assert loop.reaches((10.8, 0.2), (10.0, 0.0)) and not passes_goal((10.8, 0.2), loop.planned_from, (10.0, 0.0), 0.5)
+    assert loop.reaches((10.2, -0.3), (10.0, 0.0)) and not loop.reaches((9.0, 0.6), (10.0, 0.0))
 
 
 def test_the_heuristic_says_so_when_its_gait_misses_the_goal():
