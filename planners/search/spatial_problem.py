@@ -93,8 +93,9 @@ def spatial_problem(apex, height_map: HeightMap, goal, params: SlipParams | None
 def goal_reach(body, goal, radius: float) -> SpatialTarget:
     """What a foothold must reach for a plan from ``body`` (x, y) to reach ``goal`` (module doc): land within
     ``radius`` of it, or cross its line across the way from the body within ``radius`` of it; from a body within
-    ``radius`` of the goal, only the first (the way from there is no way: it turns as the body moves). The plan's
-    search and the loop that flies it ask the same (``planners.spatial_loop.passes_goal``)."""
+    ``radius`` of the goal, only the first (the way from there is no way: it turns as the body moves). The loop that
+    flies the plan asks the same, and also takes the finish line across the way from the case's start
+    (``planners.spatial_loop.MapLoop.reaches``)."""
     dx, dy = goal[0] - body[0], goal[1] - body[1]
     distance = math.hypot(dx, dy)
     if distance <= radius:
