@@ -184,8 +184,7 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
     if failure is None and not loop.done:
         failure = "STOPPED_SHORT"
     noisy = not loop.noise.silent
-    if failure is None and noisy and (reached is None
-                                      or not loop.reaches(reached, case.goal)):
+    if failure is None and noisy and (reached is None or not loop.reaches(reached, case.goal)):
         failure = "STOPPED_SHORT"   # the robot believed a foothold passed the goal; the one it reached did not
     result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
     result["final"] = [float(final[0]), float(final[1])]
