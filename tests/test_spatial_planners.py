@@ -239,9 +239,44 @@ def test_the_map_loop_flies_the_safe_hops_instead_of_stopping():
 
 def test_the_guided_search_flies_its_cells_at_each_grid_spacing_then_the_grids():
     """On a map the guided search tries the model's cells with points 5 cm apart, then 2.5 cm apart (Step-space's
-    two grids), then Step-space's grids themselves unless told not to, before it gives up."""
-    cells = [f"{w} model cells a node at {s} cm" for s in ("5", "2.5") for w in (4, 8)]
+    two grids), each search widening a node from 4 cells to 8, then Step-space's grids themselves unless told not to,
+    before it gives up."""
+    cells = [f"4, then 8 model cells a node at {s} cm" for s in ("5", "2.5")]
     for fallback, grids in ((True, ["5 cm grid", "2.5 cm grid"]), (False, [])):
         plan = planners.make("lstm-guided", map_grid_fallback=fallback).plan(START, chasm_map(), (8.0, 0.0), P)
         assert not plan.success
         assert [s.split(":")[0] for s in plan.message.split("(", 2)[2].rstrip(")").split("; ")] == cells + grids
+
+
+def test_a_guided_node_widens_to_its_next_cells_when_the_search_comes_back_to_it():
+    """A node's first expansion flies its 4 most probable cells and says it has more; the second flies the next 4
+    and says it has none. Together they fly what one expansion of 8 cells flies, and no foothold twice."""
+    from planners.core.clock import N_SLOTS
+    from planners.core.spatial_sampled import expand_spatial_sampled, start_sampled_spatial
+    from planners.core.spatial_tree import new_tree
+    from planners.learned.spatial_guided import sampled_expansion
+    from planners.search.spatial_problem import spatial_problem
+    from planners.search.spatial_step import SpatialStepSettings
+
+    problem = spatial_problem(START, height_map_family("blocks")(3, 0.5), (8.0, 0.0), P, None, 0.0, 60.0)
+    tree = new_tree(np.array(START))
+
+    def expansions(tiers):
+        expansion = sampled_expansion(problem, SpatialStepSettings(), planners.checkpoints.SPATIAL_WEIGHTS, tiers,
+                                      0.05)
+        state, _ = start_sampled_spatial(expansion, 0, np.array(START))
+        found = []
+        for _ in range(len(tiers)):
+            children, state = expand_spatial_sampled(expansion, state, tree, np.int64(1), np.int64(0),
+                                                     np.zeros(N_SLOTS))
+            found.append(children)
+        return found
+
+    first, second = expansions((4, 8))
+    (together,) = expansions((8,))
+    assert first.more and not second.more and not together.more
+    assert len(first.footholds) > 0 and second.ode_calls > 0
+    assert first.ode_calls + second.ode_calls == together.ode_calls
+    widened = {tuple(f) for f in np.vstack([first.footholds, second.footholds])}
+    assert len(widened) == len(first.footholds) + len(second.footholds)
+    assert widened == {tuple(f) for f in together.footholds}

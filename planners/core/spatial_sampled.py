@@ -1,29 +1,35 @@
 """LSTM-guided search's expansion on a height map, compiled: the spatial footstep model reads the node's patch and
-its branch's past footholds and ranks the patch's cells; the points (``split`` x ``split`` a cell) of each of the
-``width`` most probable cells that hold one that is solid, clear of edges and inside the window are aimed and flown
-as Step-space's candidates are (``planners.core.spatial_grid``), and the successful ones are the node's children.
-The model is run in the core (``planners.core.spatial_model``), so a node costs one small forward pass and a few
-dozen hops instead of the grid's hundreds."""
+its branch's past footholds and ranks the patch's cells; a node is expanded in tiers, one each time the search comes
+back to it (``Children.more``): the points (``split`` x ``split`` a cell) of its most probable cells that hold one that
+is solid, clear of edges and inside the window, up to ``tiers[0]`` cells, then the next up to ``tiers[1]``, and so
+on. They are aimed and flown as Step-space's candidates are (``planners.core.spatial_grid``) and the successful ones
+are the node's children; a tier none of whose hops succeeds hands over to the next at once. The model is run in the
+core (``planners.core.spatial_model``), so a node costs one small forward pass and a few dozen hops instead of the
+grid's hundreds, and a node's wider tier is flown only where its first leads nowhere: one search, not a search per
+width."""
 from __future__ import annotations
 
 import math
 from collections import namedtuple
 
 import numpy as np
+from numba import types
+from numba.typed import Dict
 
 from drakeslip.compiled import compiled
 
 from planners.core.clock import MODEL, now
 from planners.core.spatial_grid import NO_STATE, children_from, fly_candidates, foothold_height
 from planners.core.spatial_model import cell_points, logits_of, node_view
+from planners.core.tree import Children
 
 # The expansion: Step-space's grid settings (its margins, tolerance, window; not its spacing), the map, the hopper,
-# the node cost's scoring, the model's view (``ViewSettings``) and arrays (``SpatialModelArrays``), the target
-# (x, y) the model is told, the cells flown per node, the points a cell's side is split into, and the robust check's
-# particles (``planners.core.spatial_grid.RobustParticles``)
+# the node cost's scoring, the model's view (``ViewSettings``) and arrays (``SpatialModelArrays``), the target (x, y)
+# the model is told, the cells flown by each tier (cumulative, int64), the points a cell's side is split into, and
+# the robust check's particles (``planners.core.spatial_grid.RobustParticles``)
 SpatialSampledExpansion = namedtuple("SpatialSampledExpansion", ["grid", "ground", "params", "scoring", "patch_view",
-                                                                 "model", "target_x", "target_y", "width", "split",
-                                                                 "particles"])
+                                                                 "model", "target_x", "target_y", "tiers",
+                                                                 "split", "particles"])
 
 
 @compiled(inline="always")
@@ -40,28 +46,30 @@ def branch_footholds(tree, node, depth):
 
 
 @compiled(inline="always")
-def sampled_candidates(a, logits, e):
-    """The admissible points of the ``width`` most probable cells that hold one, (x, y, z) rows, the most probable
-    first: a cell over a hole or an edge gives no candidate and does not count, so a node on stepping stones flies
-    the stones the model ranks first, not the holes around them."""
+def model_candidates(a, logits, e, first, last):
+    """The admissible points, (x, y, z) rows, the most probable cell's first, of the cells ranked ``first`` to
+    ``last`` (exclusive) among the cells that hold one: a cell over a hole or an edge holds no candidate and does not
+    count, so a node on stepping stones flies the stones the model ranks first, not the holes around them."""
     n = logits.shape[0]
     order = np.argsort(-logits.reshape(-1))
     grid, ground = e.grid, e.ground
-    out = np.empty((e.split * e.split * e.width, 3))
+    out = np.empty((e.split * e.split * max(last - first, 0), 3))
     k = cells = 0
     for r in range(n * n):
-        if cells == e.width:
+        if cells == last:
             break
         points = cell_points(a, order[r] // n, order[r] % n, ground, e.params, e.patch_view, e.split)
-        first = k
+        held = 0
         for q in range(points.shape[0]):
             x, y = points[q, 0], points[q, 1]
             h = foothold_height(x, y, grid, ground)
             if math.isnan(h):
                 continue
-            out[k, 0], out[k, 1], out[k, 2] = x, y, h
-            k += 1
-        if k > first:
+            held += 1
+            if cells >= first:
+                out[k, 0], out[k, 1], out[k, 2] = x, y, h
+                k += 1
+        if held > 0:
             cells += 1
     return out[:k]
 
@@ -85,7 +93,8 @@ def sibling_isolation(targets, ok, spacing, at_failure):
 
 @compiled()
 def expand_spatial_sampled(expansion, state, tree, size, node, slots):
-    """The guided expansion of ``node`` (``planners.core.best_first.expand``): its children and the state (none)."""
+    """The guided expansion of ``node`` (``planners.core.best_first.expand``): the children of its next tier that has
+    any (the module doc), whether a tier is left, and the tiers expanded (``state``: node -> tiers done)."""
     e = expansion
     a = (tree.apex[node, 0], tree.apex[node, 1], tree.apex[node, 2], tree.apex[node, 3], tree.apex[node, 4])
     t0 = now()
@@ -93,12 +102,23 @@ def expand_spatial_sampled(expansion, state, tree, size, node, slots):
     patch, features, past = node_view(a, history, n_history, (e.target_x, e.target_y), e.ground, e.params, e.patch_view)
     logits = logits_of(patch, features, past, e.model)
     slots[MODEL] += now() - t0
-    targets = sampled_candidates(a, logits, e)
-    ok, angles, apexes, calls = fly_candidates(a, targets, e, slots)
+    tier = state[node] if node in state else 0
+    calls = 0
+    while True:
+        targets = model_candidates(a, logits, e, e.tiers[tier - 1] if tier > 0 else 0, e.tiers[tier])
+        ok, angles, apexes, flown = fly_candidates(a, targets, e, slots)
+        calls += flown
+        tier += 1
+        if ok.any() or tier == e.tiers.shape[0]:
+            break
+    state[node] = tier
     d = sibling_isolation(targets, ok, e.patch_view.cell / e.split, e.grid.at_failure)
-    return children_from(targets, ok, angles, apexes, d, calls, e.scoring), state
+    found = children_from(targets, ok, angles, apexes, d, calls, e.scoring)
+    return Children(found.angles, found.footholds, found.apexes, found.keys, found.ode_calls, found.beyond,
+                    tier < e.tiers.shape[0], found.goal), state
 
 
 @compiled(inline="always")
 def start_sampled_spatial(expansion, admission, root):
-    return NO_STATE, NO_STATE
+    """The guided search's start: no node expanded yet (node -> tiers done), no admission state."""
+    return Dict.empty(types.int64, types.int64), NO_STATE

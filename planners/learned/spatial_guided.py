@@ -1,10 +1,10 @@
 """The learned planners on a height map: the spatial footstep model (planners/learned/spatial_model.py) ranks the
 patch ahead of each node and the search flies the points of its most probable cells (``planners.core.spatial_sampled``)
 instead of Step-space's whole grid, a cell's points as far apart as the points of Step-space's grids: 5 cm, then
-2.5 cm, where a foothold on a small stone needs the finer one. ``LSTMGuidedPlanner.plan_on_map`` searches with each
-of its ``map_cells`` widths in turn at each spacing, then (``map_grid_fallback``) Step-space's grids;
-``LSTMPlanner.plan_on_map`` follows the model's most probable cell (one cell a node, little backtracking): the
-paper's LSTM planner on a map."""
+2.5 cm, where a foothold on a small stone needs the finer one. ``LSTMGuidedPlanner.plan_on_map`` searches at each
+spacing in turn, each node expanded in tiers of its most probable cells (``map_cells``: 4, then 8), then
+(``map_grid_fallback``) Step-space's own searches; ``LSTMPlanner.plan_on_map`` follows the model's most probable cell
+(one cell a node, little backtracking): the paper's LSTM planner on a map."""
 from __future__ import annotations
 
 import functools
@@ -31,31 +31,33 @@ def spatial_model(path: str):
     return model.config, model.arrays()
 
 
-# many parameters: the problem, the search's settings, the model, and the cells, points and particles of a node
-def sampled_expansion(problem: SpatialProblem, settings: SpatialStepSettings, model_path: str, width: int,
-                      split: int, particles=NOMINAL) -> SpatialSampledExpansion:
+# many parameters: the problem, the search's settings, the model, the tiers, the spacing and the particles
+def sampled_expansion(problem: SpatialProblem, settings: SpatialStepSettings, model_path: str, tiers, spacing: float,
+                      particles=NOMINAL) -> SpatialSampledExpansion:
+    """The guided expansion flying the model cells of ``tiers`` (cumulative counts), their points about ``spacing``
+    apart."""
     config, arrays = spatial_model(str(model_path))
-    units = problem.units
-    grid = grid_of(problem, settings, units.length_or(settings.spacing, SPACING))
+    view = view_of(config, problem.params)
+    grid = grid_of(problem, settings, problem.units.length_or(settings.spacing, SPACING))
     return SpatialSampledExpansion(grid, problem.height_map.ground(), problem.params.as_array(),
-                                   scoring_of(problem, settings.cost_weights), view_of(config, problem.params),
-                                   arrays, float(problem.target[0]), float(problem.target[1]), np.int64(width),
-                                   np.int64(split), particles)
+                                   scoring_of(problem, settings.cost_weights), view, arrays, float(problem.target[0]),
+                                   float(problem.target[1]), np.array(tiers, np.int64),
+                                   np.int64(max(1, round(view.cell / spacing))), particles)
 
 
 # many parameters: the planner's options that apply on a map, and its budget and name
-def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_path, widths, grid_fallback: bool,
+def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_path, tiers, grid_fallback: bool,
                 budget: Budget, name: str) -> Plan:
-    """The guided searches of ``widths`` cells a node in turn, at each of Step-space's grid spacings (a cell's side
-    split into as many points; a robust level at the first spacing only, as Step-space's), at each robustness level of
-    ``settings`` (``planners.search.spatial_step.levels``), then Step-space's grids where ``grid_fallback``."""
+    """The guided search at each of Step-space's grid spacings in turn (a robust level at the first spacing only, as
+    Step-space's), at each robustness level of ``settings`` (``planners.search.spatial_step.levels``), each node
+    expanded in the ``tiers`` of model cells; then Step-space's grids where ``grid_fallback``."""
     warm_up()
-    cell = view_of(spatial_model(str(model_path))[0], problem.params).cell
     spacings = grid_spacings(problem.units, settings)
-    searches = [(f"{label}{w} model cells a node at {spacing * 100:.3g} cm",
-                 sampled_expansion(problem, settings, model_path, w, max(1, round(cell / spacing)), particles))
+    cells = ", then ".join(map(str, tiers))
+    searches = [(f"{label}{cells} model cells a node at {spacing * 100:.3g} cm",
+                 sampled_expansion(problem, settings, model_path, tiers, spacing, particles))
                 for label, particles in levels(settings, problem.params)
-                for spacing in (spacings if particles is NOMINAL else spacings[:1]) for w in widths]
+                for spacing in (spacings if particles is NOMINAL else spacings[:1])]
     if grid_fallback:   # Step-space's grids in turn, nominal, as its own last round
         for spacing in spacings:
             searches.append((f"{spacing * 100:g} cm grid", SpatialExpansion(
@@ -65,7 +67,7 @@ def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_pa
 
 
 # many parameters: Planner.plan_on_map's inputs and the planner's options that apply on a map
-def plan_on_map(planner, apex, height_map, goal, params, widths, grid_fallback: bool, budget: Budget) -> Plan:
+def plan_on_map(planner, apex, height_map, goal, params, tiers, grid_fallback: bool, budget: Budget) -> Plan:
     """A learned planner's plan on a height map (module doc), timed as ``Planner.plan`` times a plan."""
     t0 = time.perf_counter()
     model_path = getattr(planner, "map_model", None) or SPATIAL_WEIGHTS
@@ -77,7 +79,7 @@ def plan_on_map(planner, apex, height_map, goal, params, widths, grid_fallback: 
                                    robustness=getattr(planner, "robustness", None),
                                    fallback_nominal=getattr(planner, "fallback_nominal", True),
                                    safe_hops=getattr(planner, "safe_hops", False))
-    plan = plan_guided(problem, settings, model_path, widths, grid_fallback, budget, planner.name)
+    plan = plan_guided(problem, settings, model_path, tiers, grid_fallback, budget, planner.name)
     plan.time_s = time.perf_counter() - t0
     problem.timing.total = plan.time_s
     plan.timing = problem.timing.record()
