@@ -1,6 +1,8 @@
 """The receding-horizon loop on a height map (``planners.closed_loop`` in the plane): perceive the window ahead,
 plan, fly the plan's first footholds, replan from the apex reached; until a foothold reaches the goal, a failure, no
-plan (a plan's safe hops are flown where it found no sequence: ``Plan.to_fly``), or the hop cap.
+plan, or the hop cap. Where a replan finds no sequence, the loop flies on along the last plan that found one (its
+footholds not flown yet: the sequence the robot is on still reaches where it reached), then a plan's safe hops
+(``Plan.to_fly``); "no plan" is left for an apex with neither.
 
 On Drake the loop is one simulation of the ``SlipHopper3D``: its apex policy (``drakeslip.hybrid_hopper.ApexPolicy``)
 plans when the footholds it was given run out and aims the leg at the next one with the spatial controller, so the
@@ -83,6 +85,7 @@ class MapLoop:
         # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
         self.aim = past_goal(case.apex, case.goal, GOAL_SIGMAS * self.noise.apex[0])
         self.plans, self.queue, self.failure, self.done = [], [], None, False
+        self.rest, self.rest_from = [], None   # the last sequence found: its footholds after those queued; its apex
         self.planned_from = case.apex   # the apex the current plan was made from, as the robot was told it
         self.hops, self.flown = 0, 0   # hops in all, and of the current plan
         self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
@@ -149,11 +152,17 @@ class MapLoop:
         if not self.noise.silent:
             record["seen_apex"] = list(seen)
         self.plans.append(record)
-        footholds = [] if plan is None else plan.to_fly(self.config.executed_per_plan)
-        if len(footholds) == 0:   # no plan, and no safe hops where the planner was asked for them
+        if plan is not None and plan.success:
+            footholds, sequence, self.rest_from = [tuple(f) for f in plan.footholds], True, seen
+        elif self.rest:   # on along the last sequence found, whose search's goal test stays the one that counts
+            footholds, sequence, self.planned_from = self.rest, True, self.rest_from
+            record["flies_on"] = len(footholds)
+        else:   # a plan's safe hops where the planner was asked for them
+            footholds, sequence = ([] if plan is None else [tuple(f) for f in plan.to_fly(k)]), False
+        if not footholds:
             self.failure = "NO_PLAN"
             return False
-        self.queue = [tuple(f) for f in footholds]
+        self.queue, self.rest = footholds[:k], footholds[k:] if sequence else []
         return True
 
 

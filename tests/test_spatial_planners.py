@@ -237,6 +237,34 @@ def test_the_map_loop_flies_the_safe_hops_instead_of_stopping():
     assert len(executed) == 6 and all(x < 3.0 for x, _, _ in executed)
 
 
+class FindsOnce:
+    """Step-space's plan on the first call; after it, the plan a search that finds nothing returns."""
+
+    def __init__(self, step_planner):
+        self.step, self.calls = step_planner, 0
+        self.nothing = step_planner.plan(START, chasm_map(), (8.0, 0.0), P)
+
+    def plan(self, apex, height_map, goal, params):
+        self.calls += 1
+        return self.step.plan(apex, height_map, goal, params) if self.calls == 1 else self.nothing
+
+
+def test_where_a_replan_finds_nothing_the_loop_flies_on_along_the_last_plan(step_planner):
+    """A replan that finds no sequence leaves the robot on the one it is flying: the loop flies the rest of the last
+    plan found, planning again before each few hops, and reaches the goal that plan reached."""
+    case = MapCase("flat", HeightMap.flat(), START, (6.0, 0.0))
+    planner = FindsOnce(step_planner)
+    result, _ = run_map_case(planner, case, P, ClosedLoopConfig(backend="fast"))
+    first = result["plans"][0]
+    assert first["success"] and len(first["footholds"]) > 6
+    assert result["success"], result
+    later = result["plans"][1:]
+    assert later and not any(p["success"] for p in later)
+    assert [p["flies_on"] for p in later] == list(range(len(first["footholds"]) - 3, 0, -3))
+    assert [f for p in result["plans"] for f in p["executed"]] == first["footholds"]
+    assert planner.calls == len(result["plans"])
+
+
 def test_the_guided_search_flies_its_cells_at_each_grid_spacing_then_the_grids():
     """On a map the guided search tries the model's cells with points 5 cm apart, then 2.5 cm apart (Step-space's
     two grids), each search widening a node from 4 cells to 8, then Step-space's grids themselves unless told not to,
