@@ -10,6 +10,7 @@ import planners
 from drakeslip.spatial.families import height_map_family
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.stepmap import step3d
+from planners.formats.map_case_record import check_map_case_record
 from planners.replanning import ClosedLoopConfig
 from planners.spatial_loop import MapCase, MapLoop, passes_goal, run_map_case
 
@@ -263,6 +264,10 @@ def test_where_a_replan_finds_nothing_the_loop_flies_on_along_the_last_plan(step
     assert [p["flies_on"] for p in later] == list(range(len(first["footholds"]) - 3, 0, -3))
     assert [f for p in result["plans"] for f in p["executed"]] == first["footholds"]
     assert planner.calls == len(result["plans"])
+    assert check_map_case_record(result) is result
+    result["plans"][1]["flies_on"] = -1
+    with pytest.raises(ValueError, match="flies_on"):
+        check_map_case_record(result)
 
 
 def test_the_guided_search_flies_its_cells_at_each_grid_spacing_then_the_grids():

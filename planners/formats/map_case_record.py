@@ -24,7 +24,8 @@ def check_map_case_record(record) -> dict:
 
 def check_map_plan_record(plan, where: str) -> None:
     """ValueError naming the field unless ``plan`` is a planning call's record on a map (``Plan.summary`` with the
-    apex (x, y, z, xdot, ydot) it planned from and the footholds (x, y, z) the loop executed of it)."""
+    apex (x, y, z, xdot, ydot) it planned from and the footholds (x, y, z) the loop executed of it; where it found
+    nothing and the loop flew on along the last plan found, "flies_on", how many footholds of that plan were left)."""
     require(isinstance(plan, dict), where, "an object", plan)
     for name, kind, test in (("success", "true or false", is_flag), ("message", "a string", is_text),
                              ("ode_calls", "a count", is_count), ("nodes_expanded", "a count", is_count),
@@ -33,6 +34,7 @@ def check_map_plan_record(plan, where: str) -> None:
                              ("executed", "a list of (x, y, z)", points)):
         field(plan, name, kind, test, where)
     optional(plan, "time_limited", "true or false", is_flag, where)
+    optional(plan, "flies_on", "a count", is_count, where)
     optional(plan, "target_y", "a number", is_number, where)
     optional(plan, "timing", f"an object of numbers by {', '.join(TIMING_PARTS)}",
              lambda v: isinstance(v, dict) and tuple(sorted(v)) == tuple(sorted(TIMING_PARTS))
