@@ -153,16 +153,16 @@ class MapLoop:
             record["seen_apex"] = list(seen)
         self.plans.append(record)
         if plan is not None and plan.success:
-            footholds, sequence, self.rest_from = [tuple(f) for f in plan.footholds], True, seen
+            footholds, self.rest_from = [tuple(f) for f in plan.footholds], seen
         elif self.rest:   # on along the last sequence found, whose search's goal test stays the one that counts
-            footholds, sequence, self.planned_from = self.rest, True, self.rest_from
+            footholds, self.planned_from = self.rest, self.rest_from
             record["flies_on"] = len(footholds)
-        else:   # a plan's safe hops where the planner was asked for them
-            footholds, sequence = ([] if plan is None else [tuple(f) for f in plan.to_fly(k)]), False
+        else:   # a plan's safe hops where the planner was asked for them: at most k, so none is left after them
+            footholds = [] if plan is None else [tuple(f) for f in plan.to_fly(k)]
         if not footholds:
             self.failure = "NO_PLAN"
             return False
-        self.queue, self.rest = footholds[:k], footholds[k:] if sequence else []
+        self.queue, self.rest = footholds[:k], footholds[k:]
         return True
 
 
