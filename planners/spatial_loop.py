@@ -15,9 +15,10 @@ the controller aims from the apex told, the leg reaches the commanded angles plu
 the executed hopper (the model with the case's spring, mass and friction errors) on the true map. As in the plane,
 every draw comes from one generator per case (``case_seed``): first the executed hopper, then per planning call the
 apex errors of its hops, their leg-angle errors and the sensed window. The robot aims GOAL_SIGMAS standard deviations
-of x past the goal, believes it is there when a foothold it aims at reaches that point (``MapLoop.reaches``: as the
-plan's search asked, or past its line across the way from the start within GOAL_RADIUS of it), and succeeds when the
-foothold it reached reaches the goal in the same way.
+of x past the goal, believes it is there when a hop it aims passes within GOAL_RADIUS of that point (``passes_goal``,
+the plan's search's test: the way from the foothold before it, or from the apex the plan was made from, to the
+foothold aimed at), and succeeds when the hop between the last two footholds it reached passes the goal in the same
+way.
 """
 from __future__ import annotations
 
@@ -35,7 +36,7 @@ from drakeslip.spatial.stepmap import step3d
 from drakeslip.terrain import WINDOW_AHEAD, WINDOW_BEHIND
 from drakeslip.units import units_of
 
-from planners.core.spatial_tree import crosses
+from planners.core.spatial_tree import reaches
 from planners.replanning import GOAL_SIGMAS, ClosedLoopConfig, case_result, case_seed, drawn_hopper
 from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE, goal_reach
 
@@ -52,11 +53,11 @@ class MapCase:
     goal: tuple
 
 
-def passes_goal(foothold, body, goal, radius: float) -> bool:
-    """Whether ``foothold`` reaches the goal for a plan made from ``body`` (x, ...): within ``radius`` of it, or past
-    its line across the way from the body within ``radius`` of it (``planners.search.spatial_problem.goal_reach``,
+def passes_goal(before, foothold, goal, radius: float) -> bool:
+    """Whether the hop from ``before`` (x, y, ...: the foothold before it, or the body where a plan starts) to
+    ``foothold`` reaches the goal: its way passes within ``radius`` of it (``planners.search.spatial_problem.goal_reach``,
     the test the plan's search made): the case's success."""
-    return crosses(float(foothold[0]), float(foothold[1]), goal_reach(body, goal, radius))
+    return reaches(float(before[0]), float(before[1]), float(foothold[0]), float(foothold[1]), goal_reach(goal, radius))
 
 
 def past_goal(start, goal, margin: float) -> tuple:
@@ -85,18 +86,10 @@ class MapLoop:
         # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
         self.aim = past_goal(case.apex, case.goal, GOAL_SIGMAS * self.noise.apex[0])
         self.plans, self.queue, self.failure, self.done = [], [], None, False
-        self.rest, self.rest_from = [], None   # the last sequence found: its footholds after those queued; its apex
-        self.planned_from = case.apex   # the apex the current plan was made from, as the robot was told it
+        self.rest = []   # the footholds of the last sequence found after those queued
+        self.before = case.apex[:2]   # where the next hop's way starts: the apex a plan starts from, then its footholds
         self.hops, self.flown = 0, 0   # hops in all, and of the current plan
         self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
-
-    def reaches(self, foothold, goal) -> bool:
-        """Whether ``foothold`` reaches ``goal`` as the current plan's search asked (``passes_goal`` from the apex it
-        was made from), or crosses the goal's line across the way from the case's start within GOAL_RADIUS of it:
-        the finish line a robot that overshoots a goal beside it still crosses, from where a plan's way points
-        back."""
-        return (passes_goal(foothold, self.planned_from, goal, self.radius)
-                or passes_goal(foothold, self.case.apex, goal, self.radius))
 
     def told(self, apex, hop: int) -> tuple:
         """The apex the robot is told at the current plan's ``hop``: the true one plus its drawn error."""
@@ -117,8 +110,9 @@ class MapLoop:
         target = self.queue.pop(0)
         self.plans[-1]["executed"].append([float(v) for v in target])
         self.hops, self.flown = self.hops + 1, self.flown + 1
-        if self.reaches(target, self.aim):
-            self.done = True   # this hop lands past the goal: the run ends at the apex after it
+        if passes_goal(self.before, target, self.aim, self.radius):
+            self.done = True   # this hop passes the goal: the run ends at the apex after it
+        self.before = target
         try:
             angles = leg_angles_for(self.told(apex, self.flown - 1), target, self.params)
         except ValueError:
@@ -135,7 +129,6 @@ class MapLoop:
             self.apex_errors = apex_errors3d(self.noise, self.rng, k)
             self.angle_errors = angle_errors3d(self.noise, self.rng, k)
         seen, goal = self.told(apex, 0), self.aim
-        self.planned_from = seen
         window = self.case.terrain.perceived(seen[0], seen[1], (goal[0] - seen[0], goal[1] - seen[1]), self.ahead,
                                              self.aside, self.behind)
         if not self.noise.silent:
@@ -153,12 +146,12 @@ class MapLoop:
             record["seen_apex"] = list(seen)
         self.plans.append(record)
         if plan is not None and plan.success:
-            footholds, self.rest_from = [tuple(f) for f in plan.footholds], seen
-        elif self.rest:   # on along the last sequence found, whose search's goal test stays the one that counts
-            footholds, self.planned_from = self.rest, self.rest_from
+            footholds, self.before = [tuple(f) for f in plan.footholds], seen[:2]
+        elif self.rest:   # on along the last sequence found, from its last foothold flown
+            footholds = self.rest
             record["flies_on"] = len(footholds)
         else:   # a plan's safe hops where the planner was asked for them: at most k, so none is left after them
-            footholds = [] if plan is None else [tuple(f) for f in plan.to_fly(k)]
+            footholds, self.before = ([] if plan is None else [tuple(f) for f in plan.to_fly(k)]), seen[:2]
         if not footholds:
             self.failure = "NO_PLAN"
             return False
@@ -171,12 +164,12 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
     Drake run (``SimulationResult3D``; None on the fast backend)). ``final_x`` is the last apex's x; "final" in the
     result holds its (x, y); under noise "executed_params" is the hopper that ran."""
     loop = MapLoop(planner, case, params, config)
-    sim, reached = None, None   # reached: the last foothold the hopper touched down on
+    sim, reached = None, []   # reached: the footholds the hopper touched down on
     if config.backend == "drake":
         sim = simulate3d(case.apex, loop.command, case.terrain, loop.executed, max_hops=config.max_hops + 1)
         failure = sim.failure.name if sim.failure is not None else loop.failure
         final = sim.apexes[-1] if sim.apexes else case.apex
-        reached = sim.footholds[-1] if sim.footholds else None
+        reached = list(sim.footholds)
     else:
         apex, failure = tuple(case.apex), None
         while True:
@@ -188,13 +181,16 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
             if not hop.ok:
                 failure = hop.failure.name
                 break
-            apex, reached = tuple(hop.next_apex), hop.foothold
+            apex = tuple(hop.next_apex)
+            reached.append(hop.foothold)
         final = apex
     if failure is None and not loop.done:
         failure = "STOPPED_SHORT"
     noisy = not loop.noise.silent
-    if failure is None and noisy and (reached is None or not loop.reaches(reached, case.goal)):
-        failure = "STOPPED_SHORT"   # the robot believed a foothold passed the goal; the one it reached did not
+    if failure is None and noisy and not (reached and passes_goal(([case.apex] + reached)[-2], reached[-1], case.goal,
+                                                                  loop.radius)):
+        failure = "STOPPED_SHORT"   # the robot believed its hop passed the goal; the hop between the footholds it
+        # reached did not
     result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
     result["final"] = [float(final[0]), float(final[1])]
     return result, sim

@@ -29,6 +29,12 @@ def walled_map():
     return HeightMap(h, cell, (x0, y0))
 
 
+def last_hop(plan, body):
+    """The plan's last foothold and where its hop's way starts (the foothold before it, or the body)."""
+    before = plan.footholds[-2] if len(plan.footholds) > 1 else body
+    return before, plan.footholds[-1]
+
+
 @pytest.fixture(scope="module")
 def step_planner():
     return planners.make("step")
@@ -50,8 +56,7 @@ def test_step_space_plans_are_flown_exactly(step_planner, family):
         assert not height_map.is_hole_at(*foothold[:2]) and foothold[2] == height_map.height_at(*foothold[:2])
         assert np.allclose(hop.next_apex, predicted, rtol=0, atol=1e-12)
         apex = tuple(predicted)
-    last = plan.footholds[-1]
-    assert passes_goal(last, START, (plan.target_x, plan.target_y), 0.5)
+    assert passes_goal(*last_hop(plan, START), (plan.target_x, plan.target_y), 0.5)
     again = step_planner.plan(START, height_map, (6.0, 0.0), P)
     assert np.array_equal(again.footholds, plan.footholds) and again.ode_calls == plan.ode_calls
 
@@ -64,48 +69,57 @@ def test_a_plan_goes_round_what_it_cannot_cross(step_planner):
     assert plan.footholds[-1, 0] >= plan.target_x
 
 
+def test_a_hop_reaches_the_goal_when_its_way_passes_within_the_radius():
+    """The finish is the goal's disk, met by the way between two footholds: a hop that passes by the goal reaches it
+    wherever it lands, and one that passes it aside does not, whatever it lands behind it."""
+    goal = (10.0, 0.0)
+    assert passes_goal((9.0, 0.0), (11.0, 0.3), goal, 0.5)            # passes 0.15 m from it, lands 1.04 m away
+    assert passes_goal((9.2, 0.1), (9.7, 0.2), goal, 0.5)             # lands within the disk, short of the goal
+    assert not passes_goal((9.0, 1.0), (11.0, 0.9), goal, 0.5)        # passes 0.95 m aside
+    assert not passes_goal((11.5, 1.0), (12.5, 0.2), goal, 0.5)       # lands on the way, 2.5 m past the goal
+    assert not passes_goal((9.0, 0.0), (9.4, 0.0), goal, 0.5)         # stops 0.6 m short
+
+
 @pytest.mark.parametrize("label", ["step", "lstm-guided", "heuristic"])
-def test_beside_the_goal_a_plan_lands_within_its_radius(label):
+def test_beside_the_goal_a_plan_passes_within_its_radius(label):
     """The body 0.6 m from the goal, 0.45 m beside the path, on a ledge along the path that ends 0.5 m past the
-    goal: the line across the way from the body to the goal is turned 48 degrees, and no foothold on the ledge
-    passes it, but footholds within the goal's radius do, and the loop counts them as the goal reached."""
+    goal: the plan's last hop passes within the goal's radius, and no hop before it does (the plan ends there)."""
     cell, x0, y0 = 0.05, 8.0, -1.0
     x, y = x0 + (np.arange(80) + 0.5) * cell, y0 + (np.arange(50) + 0.5) * cell
     h = np.full((50, 80), np.nan)
     h[np.ix_(np.abs(y - 0.45) < 0.2, x < 10.5)] = 0.0
-    goal, body = (10.0, 0.0), (9.6, 0.45, 0.9, 1.5, 0.0)
+    goal, body = (10.0, 0.0), (9.4, 0.45, 0.9, 1.5, 0.0)
     plan = planners.make(label).plan(body, HeightMap(h, cell, (x0, y0)), goal, P)
     assert plan.success, plan.message
-    assert math.dist(plan.footholds[-1][:2], goal) <= 0.5
-    assert passes_goal(plan.footholds[-1], body, goal, 0.5)
+    ways = list(zip([body] + list(plan.footholds[:-1]), plan.footholds))
+    assert passes_goal(*ways[-1], goal, 0.5) and not any(passes_goal(*w, goal, 0.5) for w in ways[:-1])
 
 
 @pytest.mark.parametrize("label", ["step", "lstm-guided"])
-def test_within_the_goal_s_radius_a_plan_lands_inside_it(label):
-    """From a body 0.22 m from the goal, running off to the side, no line through the goal is the way: a foothold
-    reaches the goal only within its radius."""
+def test_a_body_within_the_goal_s_radius_is_one_hop_from_it(label):
+    """From a body 0.22 m from the goal, running off to the side, the first hop's way starts within the radius."""
     goal, body = (10.0, 0.0), (10.14, -0.22, 0.55, 2.7, -1.7)
     plan = planners.make(label).plan(body, HeightMap.flat(), goal, P)
-    assert plan.success, plan.message
-    assert math.dist(plan.footholds[-1][:2], goal) <= 0.5
-    assert passes_goal(plan.footholds[-1], body, goal, 0.5)
-    # past the goal across the way from the start, but not within the radius: not for a plan made from the body
-    assert passes_goal((10.6, -0.3), START, goal, 0.5) and not passes_goal((10.6, -0.3), body, goal, 0.5)
+    assert plan.success and len(plan.footholds) == 1, plan.message
 
 
-def test_the_loop_counts_the_finish_line_from_the_start_as_well_as_the_plan_s_own_test(step_planner):
-    """A robot past a goal beside its path plans (from within the goal's radius) for the goal's disk alone; a foothold
-    it lands beyond the disk but past the goal's line across the way from the start has still crossed the finish."""
-    loop = MapLoop(step_planner, MapCase("flat", HeightMap.flat(), START, (10.0, 0.0)), P, ClosedLoopConfig())
-    loop.planned_from = (10.3, 0.1, 0.9, 2.0, 0.0)
-    assert loop.reaches((10.8, 0.2), (10.0, 0.0)) and not passes_goal((10.8, 0.2), loop.planned_from, (10.0, 0.0), 0.5)
-    assert loop.reaches((10.2, -0.3), (10.0, 0.0)) and not loop.reaches((9.0, 0.6), (10.0, 0.0))
+def test_the_loop_s_way_starts_at_a_plan_s_apex_then_follows_its_footholds(step_planner):
+    """The loop asks the plan's search's test: the first hop of a plan from the apex the plan was made from, each
+    later one from the foothold flown before it."""
+    loop = MapLoop(step_planner, MapCase("flat", HeightMap.flat(), START, (6.0, 0.0)), P, ClosedLoopConfig())
+    assert loop.before == START[:2]
+    apex = (1.0, 0.1, 0.9, 1.5, 0.0)
+    loop.command(apex, 0)
+    first = loop.plans[0]["executed"][0]
+    assert loop.before == tuple(first) and len(loop.queue) == 2
+    loop.command(apex, 1)
+    assert loop.before == tuple(loop.plans[0]["executed"][1])
 
 
 def test_the_heuristic_says_so_when_its_gait_misses_the_goal():
-    """Near the goal and running off to the side, the gait turns too slowly to land within the goal's radius: it
-    leaves the window, and the plan says so instead of ending at the window's edge as if it had arrived."""
-    plan = planners.make("heuristic").plan((10.14, -0.22, 0.55, 2.7, -1.7), HeightMap.flat(), (10.0, 0.0), P)
+    """0.9 m from the goal and running off to the side, the gait turns too slowly to pass within the goal's radius:
+    it leaves the window, and the plan says so instead of ending at the window's edge as if it had arrived."""
+    plan = planners.make("heuristic").plan((9.6, -0.8, 0.55, 2.7, -1.7), HeightMap.flat(), (10.0, 0.0), P)
     assert not plan.success and "without reaching the goal" in plan.message, plan.message
 
 

@@ -13,9 +13,10 @@ import numpy as np
 from drakeslip.compiled import compiled
 from planners.core.tree import CAPACITY, Tree, heap_push, reserve
 
-# Where a search on a height map goes: a goal's foothold lies within ``radius`` of (x, y), or past the line through it
-# across the ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``crosses``; a negative half width: no
-# line, the disk alone)
+# Where a search on a height map goes: a goal is reached by a hop whose way, from the foothold before it to its own,
+# passes within ``radius`` of (x, y); a target on the way by a foothold past the line through (x, y) across the
+# ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``reaches``; a negative half width: no line, a radius
+# of 0: no disk)
 SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width", "radius"])
 # the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
 SpatialScoring = namedtuple("SpatialScoring", ["target_x", "target_y", "progress", "speed", "isolation"])
@@ -62,20 +63,31 @@ def add_children(tree, size, node, children, frontier):
 
 
 @compiled()
-def crosses(fx, fy, target):
-    """Whether a foothold at (fx, fy) reaches ``target`` (a ``SpatialTarget``): within its radius, or past its line
-    within its half width. The disk keeps the test sound when the body is beside or past the goal, where a line
-    across the way from the body to the goal would turn with every centimetre the body moves."""
-    dx, dy = fx - target.x, fy - target.y
-    if dx * dx + dy * dy <= target.radius * target.radius:
+def reaches(px, py, fx, fy, target):
+    """Whether the hop from (px, py) (the foothold before it; for a plan's first hop the body at its apex) to the
+    foothold (fx, fy) reaches ``target`` (a ``SpatialTarget``): its way passes within the target's radius of its point,
+    or the foothold lands past its line within its half width. The way is the segment between the footholds, which
+    the body passes over: a hop that passes the goal aside and lands beyond it has not been there."""
+    wx, wy = fx - px, fy - py
+    along = wx * wx + wy * wy
+    share = 0.0 if along <= 0.0 else min(1.0, max(0.0, ((target.x - px) * wx + (target.y - py) * wy) / along))
+    cx, cy = px + share * wx - target.x, py + share * wy - target.y
+    if cx * cx + cy * cy <= target.radius * target.radius:
         return True
+    dx, dy = fx - target.x, fy - target.y
     return dx * target.hx + dy * target.hy >= 0.0 and abs(dy * target.hx - dx * target.hy) <= target.half_width
 
 
 @compiled(inline="always")
 def passes(tree, node, target):
-    """Whether ``node``'s foothold reaches the target (``crosses``): the search's goal test."""
-    return crosses(tree.foothold[node, 0], tree.foothold[node, 1], target)
+    """Whether the hop to ``node`` reaches the target (``reaches``, from its parent's foothold, or from the root's
+    apex for the root's children): the search's goal test."""
+    parent = tree.parent[node]
+    if parent <= 0:
+        px, py = tree.apex[0, 0], tree.apex[0, 1]
+    else:
+        px, py = tree.foothold[parent, 0], tree.foothold[parent, 1]
+    return reaches(px, py, tree.foothold[node, 0], tree.foothold[node, 1], target)
 
 
 @compiled()

@@ -17,7 +17,7 @@ from drakeslip.terrain import LEVEL_TOLERANCE
 from drakeslip.units import units_of
 
 from planners.base import FootstepSequence, Plan
-from planners.core.spatial_tree import crosses
+from planners.core.spatial_tree import reaches
 from planners.search.gait import interpolate, neutral_gait
 from planners.search.spatial_problem import SpatialProblem
 
@@ -93,7 +93,7 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
     heading = math.atan2(vy, vx)
     tx, ty = problem.target
     reach = problem.reach
-    footholds = []
+    footholds, before = [], (x, y)   # before: where the next hop's way starts (the body, then each foothold)
     m = problem.height_map
     for _ in range(MAX_HOPS):
         wanted = math.atan2(ty - y, tx - x)
@@ -121,8 +121,9 @@ def plan_heuristic(problem: SpatialProblem, edge_margin: float, max_shift: float
         # less the foothold's lead on it, past the foothold
         beyond = interpolate(advance_table, speed, z - fz) - ahead
         x, y = spot[0] + beyond * math.cos(heading), spot[1] + beyond * math.sin(heading)
-        if crosses(spot[0], spot[1], reach):
+        if reaches(before[0], before[1], spot[0], spot[1], reach):
             break
+        before = spot
     else:
         return Plan(name, False, problem.target_x, target_y=ty,
                     message=f"no plan found: the gait goes in circles ({MAX_HOPS} hops without reaching the target)")

@@ -2,11 +2,11 @@
 
 The goal is a point (x, y). The footholds stay in the known window: the map's cells (all of them for a map; a
 perception window's own) within ``horizon`` of the body. When the goal lies beyond the horizon the target is the
-point TARGET_MARGIN short of it on the way from the body to the goal. A sequence reaches the goal when a foothold lands
-within GOAL_RADIUS of it or crosses the line through it across the way from the body, within GOAL_RADIUS of it
-(``goal_reach``: only the first for a body already within GOAL_RADIUS of the goal); it reaches a target on the way
-when a foothold crosses that target's line within the window's half width of it (the plan may go round what lies
-between; ``planners.core.spatial_tree.crosses``)."""
+point TARGET_MARGIN short of it on the way from the body to the goal. A sequence reaches the goal when a hop's way,
+from the foothold before it (the body, for the first hop) to its own, passes within GOAL_RADIUS of it (``goal_reach``:
+a finish that does not turn with the body, and one a hop cannot pass aside and land behind); it reaches a target on
+the way when a foothold lands past that target's line within the window's half width of it (the plan may go round
+what lies between; ``planners.core.spatial_tree.reaches``)."""
 from __future__ import annotations
 
 import math
@@ -22,7 +22,7 @@ from drakeslip.units import HopperUnits, units_of
 from planners.base import TARGET_MARGIN, Timing
 from planners.core.spatial_tree import SpatialTarget
 
-GOAL_RADIUS = 0.5   # [m] a plan that reaches the goal ends this close to it, across the way (paper's hopper's lengths)
+GOAL_RADIUS = 0.5   # [m] a plan that reaches the goal passes this close to it (paper's hopper's lengths)
 WINDOW_ASIDE = 2.0  # [m] the perception window reaches this far to either side of the body (paper's hopper's)
 
 
@@ -82,7 +82,7 @@ def spatial_problem(apex, height_map: HeightMap, goal, params: SlipParams | None
     dx, dy = goal[0] - x, goal[1] - y
     distance = math.hypot(dx, dy)
     if distance <= horizon - margin:
-        target, reach = goal, goal_reach((x, y), goal, GOAL_RADIUS * units.length)
+        target, reach = goal, goal_reach(goal, GOAL_RADIUS * units.length)
     else:
         hx, hy, ahead = dx / distance, dy / distance, horizon - margin
         target = (x + ahead * hx, y + ahead * hy)
@@ -90,14 +90,7 @@ def spatial_problem(apex, height_map: HeightMap, goal, params: SlipParams | None
     return SpatialProblem(apex, height_map, goal, params, units, window, target, reach, t0 + max_time_s)
 
 
-def goal_reach(body, goal, radius: float) -> SpatialTarget:
-    """What a foothold must reach for a plan from ``body`` (x, y) to reach ``goal`` (module doc): land within
-    ``radius`` of it, or cross its line across the way from the body within ``radius`` of it; from a body within
-    ``radius`` of the goal, only the first (the way from there is no way: it turns as the body moves). The loop that
-    flies the plan asks the same, and also takes the finish line across the way from the case's start
-    (``planners.spatial_loop.MapLoop.reaches``)."""
-    dx, dy = goal[0] - body[0], goal[1] - body[1]
-    distance = math.hypot(dx, dy)
-    if distance <= radius:
-        return SpatialTarget(float(goal[0]), float(goal[1]), 1.0, 0.0, -1.0, float(radius))
-    return SpatialTarget(float(goal[0]), float(goal[1]), dx / distance, dy / distance, float(radius), float(radius))
+def goal_reach(goal, radius: float) -> SpatialTarget:
+    """What a hop must reach for a plan to reach ``goal`` (module doc): its way passes within ``radius`` of it. The
+    loop that flies the plan asks the same (``planners.spatial_loop.passes_goal``)."""
+    return SpatialTarget(float(goal[0]), float(goal[1]), 1.0, 0.0, -1.0, float(radius))
