@@ -94,23 +94,31 @@ def node_view(apex, history, n_history, target, ground, p, view):
 
 @compiled()
 def conv3x3(x, w, b, relu):
-    """A 3x3 convolution with zero padding of ``x`` (in, n, n) by ``w`` (out, in, 3, 3) and ``b`` (out,)."""
+    """A 3x3 convolution with zero padding of ``x`` (in, n, n) by ``w`` (out, in, 3, 3) and ``b`` (out,). Each output
+    sums its terms in torch's reference order (input channel, row, column of the kernel), a whole output plane per
+    kernel weight: the inner loops run over contiguous rows of the padded input, with no bounds to test."""
     n_out, n_in, n = w.shape[0], w.shape[1], x.shape[1]
+    padded = np.zeros((n_in, n + 2, n + 2))
+    for i in range(n_in):
+        for a in range(n):
+            for c in range(n):
+                padded[i, a + 1, c + 1] = x[i, a, c]
     out = np.empty((n_out, n, n))
     for o in range(n_out):
         for a in range(n):
             for c in range(n):
-                total = b[o]
-                for i in range(n_in):
-                    for da in range(3):
-                        aa = a + da - 1
-                        if aa < 0 or aa >= n:
-                            continue
-                        for dc in range(3):
-                            cc = c + dc - 1
-                            if 0 <= cc < n:
-                                total += w[o, i, da, dc] * x[i, aa, cc]
-                out[o, a, c] = max(total, 0.0) if relu else total
+                out[o, a, c] = b[o]
+        for i in range(n_in):
+            for da in range(3):
+                for dc in range(3):
+                    weight = w[o, i, da, dc]
+                    for a in range(n):
+                        for c in range(n):
+                            out[o, a, c] += weight * padded[i, a + da, c + dc]
+        if relu:
+            for a in range(n):
+                for c in range(n):
+                    out[o, a, c] = max(out[o, a, c], 0.0)
     return out
 
 
