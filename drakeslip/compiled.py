@@ -23,11 +23,11 @@ import hashlib
 import os
 import sys
 import threading
+import time
 from pathlib import Path
 
 STAMP = "numba-sources.sha256"
 ANNOUNCE_AFTER_S = 1.0   # loading machine code from the cache takes milliseconds; compiling it, seconds
-_announced = threading.Event()
 
 
 def sources_digest(roots) -> str:
@@ -72,21 +72,61 @@ def compiled(**options):
     return njit(cache=True, no_cfunc_wrapper=True, **options)
 
 
+class Announcer:
+    """Says once per process, in one line on stderr, that the toolkit's code is being compiled, when a ``compiling``
+    block has run ANNOUNCE_AFTER_S. One daemon thread per process watches the open block: entering and leaving a
+    block costs a lock, not a thread's start (a plan's search enters one per attempt, and a thread's start would cost
+    a fast plan a tenth of its time)."""
+
+    def __init__(self):
+        self.reset()
+        os.register_at_fork(after_in_child=self.reset)   # a fork copies no thread, and maybe a lock held by one
+
+    def reset(self):
+        self.condition = threading.Condition()
+        self.since, self.depth, self.started = None, 0, False   # since: when the outermost open block began
+
+    def enter(self):
+        with self.condition:
+            if not self.started:   # first use in this process
+                self.started = True
+                threading.Thread(target=self.watch, daemon=True).start()
+            if self.depth == 0:
+                self.since = time.monotonic()
+            self.depth += 1
+            self.condition.notify()
+
+    def leave(self):
+        with self.condition:
+            self.depth -= 1
+            if self.depth == 0:
+                self.since = None
+
+    def watch(self):
+        with self.condition:
+            while True:
+                if self.since is None:
+                    self.condition.wait()
+                    continue
+                left = self.since + ANNOUNCE_AFTER_S - time.monotonic()
+                if left > 0:
+                    self.condition.wait(left)
+                    continue
+                print("compiling the planning code for this machine, once (later runs load it from numba's cache) ...",
+                      file=sys.stderr, flush=True)
+                return
+
+
+_announcer = Announcer()
+
+
 @contextlib.contextmanager
 def compiling():
     """Run the block (a first call of compiled code) saying in one line on stderr, once per process, that the
     toolkit's code is being compiled when it takes longer than ANNOUNCE_AFTER_S: on a machine's first run numba
-    compiles it (tens of seconds), later runs load it from the cache in milliseconds."""
-    def announce():
-        if not _announced.is_set():
-            _announced.set()
-            print("compiling the planning code for this machine, once (later runs load it from numba's cache) ...",
-                  file=sys.stderr, flush=True)
-
-    timer = threading.Timer(ANNOUNCE_AFTER_S, announce)
-    timer.daemon = True
-    timer.start()
+    compiles it (tens of seconds), later runs load it from the cache in milliseconds (``Announcer``)."""
+    _announcer.enter()
     try:
         yield
     finally:
-        timer.cancel()
+        _announcer.leave()

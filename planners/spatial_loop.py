@@ -55,8 +55,8 @@ class MapCase:
 
 def passes_goal(before, foothold, goal, radius: float) -> bool:
     """Whether the hop from ``before`` (x, y, ...: the foothold before it, or the body where a plan starts) to
-    ``foothold`` reaches the goal: its way passes within ``radius`` of it (``planners.search.spatial_problem.goal_reach``,
-    the test the plan's search made): the case's success."""
+    ``foothold`` reaches the goal: its way passes within ``radius`` of it (the test the plan's search made,
+    ``planners.search.spatial_problem.goal_reach``): the case's success."""
     return reaches(float(before[0]), float(before[1]), float(foothold[0]), float(foothold[1]), goal_reach(goal, radius))
 
 

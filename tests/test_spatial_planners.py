@@ -285,10 +285,10 @@ def test_where_a_replan_finds_nothing_the_loop_flies_on_along_the_last_plan(step
 
 
 def test_the_guided_search_flies_its_cells_at_each_grid_spacing_then_the_grids():
-    """On a map the guided search tries the model's cells with points 5 cm apart, then 2.5 cm apart (Step-space's
-    two grids), each search widening a node from 4 cells to 8, then Step-space's grids themselves unless told not to,
-    before it gives up."""
-    cells = [f"4, then 8 model cells a node at {s} cm" for s in ("5", "2.5")]
+    """On a map the guided search tries the model's cells at their centres (10 cm apart), then with points 5 cm apart,
+    then 2.5 cm apart (Step-space's two grids), each search widening a node from 4 cells to 8, then Step-space's grids
+    themselves unless told not to, before it gives up."""
+    cells = [f"4, then 8 model cells a node at {s} cm" for s in ("10", "5", "2.5")]
     for fallback, grids in ((True, ["5 cm grid", "2.5 cm grid"]), (False, [])):
         plan = planners.make("lstm-guided", map_grid_fallback=fallback).plan(START, chasm_map(), (8.0, 0.0), P)
         assert not plan.success

@@ -15,8 +15,8 @@ from planners.core.tree import CAPACITY, Tree, heap_push, reserve
 
 # Where a search on a height map goes: a goal is reached by a hop whose way, from the foothold before it to its own,
 # passes within ``radius`` of (x, y); a target on the way by a foothold past the line through (x, y) across the
-# ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``reaches``; a negative half width: no line, a radius
-# of 0: no disk)
+# ``heading`` (hx, hy) (a unit vector) within ``half_width`` of it (``reaches``; a negative half width: no line, a
+# radius of 0: no disk)
 SpatialTarget = namedtuple("SpatialTarget", ["x", "y", "hx", "hy", "half_width", "radius"])
 # the node cost's weights: progress to the target, speed (times the hopper's time unit), isolation
 SpatialScoring = namedtuple("SpatialScoring", ["target_x", "target_y", "progress", "speed", "isolation"])

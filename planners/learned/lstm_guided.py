@@ -28,8 +28,8 @@ from planners.search.tree import CostWeights
 # controller and the step map), so this bounds a call that finds no plan to a few seconds as Step-space's does.
 MAX_NODES = 500
 # On a height map: the spatial model's cells a node flies, the first time the search expands it and each time it comes
-# back (4 cells are 16 candidates at 5 cm, 64 at 2.5 cm; the label's cell is among the model's 4 first in 91 % of the
-# held-out samples and among its 8 first in 97 %, docs/reproduction.md)
+# back (4 cells are 4 candidates at their centres, 16 at 5 cm, 64 at 2.5 cm; the label's cell is among the model's 4
+# first in 91 % of the held-out samples and among its 8 first in 97 %, docs/reproduction.md)
 MAP_CELLS = (4, 8)
 _COMPILED: list = []  # holds True once this process has compiled (or loaded) the sampled core
 

@@ -1,10 +1,11 @@
 """The learned planners on a height map: the spatial footstep model (planners/learned/spatial_model.py) ranks the
 patch ahead of each node and the search flies the points of its most probable cells (``planners.core.spatial_sampled``)
-instead of Step-space's whole grid, a cell's points as far apart as the points of Step-space's grids: 5 cm, then
-2.5 cm, where a foothold on a small stone needs the finer one. ``LSTMGuidedPlanner.plan_on_map`` searches at each
-spacing in turn, each node expanded in tiers of its most probable cells (``map_cells``: 4, then 8), then
-(``map_grid_fallback``) Step-space's own searches; ``LSTMPlanner.plan_on_map`` follows the model's most probable cell
-(one cell a node, little backtracking): the paper's LSTM planner on a map."""
+instead of Step-space's whole grid: first each cell's centre (the model's 10 cm cells, one point each: on open ground
+and stairs a plan needs no finer choice, and a node costs a few hops), then points as far apart as the points of
+Step-space's grids, 5 cm, then 2.5 cm, where a foothold on a small stone needs the finer ones.
+``LSTMGuidedPlanner.plan_on_map`` searches at each spacing in turn, each node expanded in tiers of its most probable
+cells (``map_cells``: 4, then 8), then (``map_grid_fallback``) Step-space's own searches; ``LSTMPlanner.plan_on_map``
+follows the model's most probable cell (one cell a node, little backtracking): the paper's LSTM planner on a map."""
 from __future__ import annotations
 
 import functools
@@ -24,8 +25,12 @@ from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, Sp
 
 @functools.lru_cache(maxsize=4)
 def spatial_model(path: str):
-    """(the model's config, its arrays for the compiled pass) of a weights file, loaded and checked once."""
+    """(the model's config, its arrays for the compiled pass) of a weights file, loaded and checked once;
+    FileNotFoundError where there is none (not cached: asked again on the next call)."""
     from planners.learned.spatial_model import load_spatial_checkpoint
+
+    if not Path(path).is_file():
+        raise FileNotFoundError(path)
 
     model, _ = load_spatial_checkpoint(path)
     return model.config, model.arrays()
@@ -48,16 +53,20 @@ def sampled_expansion(problem: SpatialProblem, settings: SpatialStepSettings, mo
 # many parameters: the planner's options that apply on a map, and its budget and name
 def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_path, tiers, grid_fallback: bool,
                 budget: Budget, name: str) -> Plan:
-    """The guided search at each of Step-space's grid spacings in turn (a robust level at the first spacing only, as
-    Step-space's), at each robustness level of ``settings`` (``planners.search.spatial_step.levels``), each node
-    expanded in the ``tiers`` of model cells; then Step-space's grids where ``grid_fallback``."""
+    """The guided search at the model's cell, then at each of Step-space's grid spacings in turn (a robust level at
+    the cell and Step-space's first spacing only, as Step-space's at its first), at each robustness level of
+    ``settings`` (``planners.search.spatial_step.levels``), each node expanded in the ``tiers`` of model cells; then
+    Step-space's grids where ``grid_fallback``."""
     warm_up()
     spacings = grid_spacings(problem.units, settings)
+    config, _ = spatial_model(str(model_path))
+    cell = view_of(config, problem.params).cell
+    guided = [cell] + [s for s in spacings if s < cell]   # a cell's centre, then the grids' spacings within it
     cells = ", then ".join(map(str, tiers))
     searches = [(f"{label}{cells} model cells a node at {spacing * 100:.3g} cm",
                  sampled_expansion(problem, settings, model_path, tiers, spacing, particles))
                 for label, particles in levels(settings, problem.params)
-                for spacing in (spacings if particles is NOMINAL else spacings[:1])]
+                for spacing in (guided if particles is NOMINAL else guided[:2])]
     if grid_fallback:   # Step-space's grids in turn, nominal, as its own last round
         for spacing in spacings:
             searches.append((f"{spacing * 100:g} cm grid", SpatialExpansion(
@@ -71,8 +80,10 @@ def plan_on_map(planner, apex, height_map, goal, params, tiers, grid_fallback: b
     """A learned planner's plan on a height map (module doc), timed as ``Planner.plan`` times a plan."""
     t0 = time.perf_counter()
     model_path = getattr(planner, "map_model", None) or SPATIAL_WEIGHTS
-    if not Path(model_path).is_file():
-        raise ValueError(f"the {planner.name!r} planner's map model {model_path} does not exist")
+    try:   # loaded once a process: a plan of a few milliseconds does not read the disk
+        spatial_model(str(model_path))
+    except FileNotFoundError:
+        raise ValueError(f"the {planner.name!r} planner's map model {model_path} does not exist") from None
     problem = spatial_problem(apex, height_map, goal, params, planner.horizon, t0, budget.max_time_s)
     settings = SpatialStepSettings(getattr(planner, "spacing", None), None, getattr(planner, "tolerance", None),
                                    getattr(planner, "edge_margin", None), getattr(planner, "min_speed", None),
