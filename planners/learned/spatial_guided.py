@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -55,8 +56,9 @@ def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_pa
                 budget: Budget, name: str) -> Plan:
     """The guided search at the model's cell, then at each of Step-space's grid spacings in turn (a robust level at
     the cell and Step-space's first spacing only, as Step-space's at its first), at each robustness level of
-    ``settings`` (``planners.search.spatial_step.levels``), each node expanded in the ``tiers`` of model cells; then
-    Step-space's grids where ``grid_fallback``."""
+    ``settings`` (``planners.search.spatial_step.levels``), each node expanded in the ``tiers`` of model cells, within
+    ``budget``; then, where ``grid_fallback``, Step-space's grids as ``step`` searches them, within its node budget at
+    least (a guided node flies a few hops, a grid node hundreds: the guided budget is no grid search's)."""
     warm_up()
     spacings = grid_spacings(problem.units, settings)
     config, _ = spatial_model(str(model_path))
@@ -64,15 +66,16 @@ def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_pa
     guided = [cell] + [s for s in spacings if s < cell]   # a cell's centre, then the grids' spacings within it
     cells = ", then ".join(map(str, tiers))
     searches = [(f"{label}{cells} model cells a node at {spacing * 100:.3g} cm",
-                 sampled_expansion(problem, settings, model_path, tiers, spacing, particles))
+                 sampled_expansion(problem, settings, model_path, tiers, spacing, particles), budget)
                 for label, particles in levels(settings, problem.params)
                 for spacing in (guided if particles is NOMINAL else guided[:2])]
     if grid_fallback:   # Step-space's grids in turn, nominal, as its own last round
+        grid_budget = replace(budget, max_nodes=max(budget.max_nodes, Budget.max_nodes))
         for spacing in spacings:
             searches.append((f"{spacing * 100:g} cm grid", SpatialExpansion(
                 grid_of(problem, settings, spacing), problem.height_map.ground(), problem.params.as_array(),
-                scoring_of(problem, settings.cost_weights), NOMINAL)))
-    return run_searches(problem, searches, settings, budget, name)[0]
+                scoring_of(problem, settings.cost_weights), NOMINAL), grid_budget))
+    return run_searches(problem, searches, settings, name)[0]
 
 
 # many parameters: Planner.plan_on_map's inputs and the planner's options that apply on a map

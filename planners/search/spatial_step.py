@@ -140,16 +140,16 @@ def search_step_space(problem: SpatialProblem, settings: SpatialStepSettings, bu
         for spacing in spacings if particles is NOMINAL else spacings[:1]:
             searches.append((f"{label}{spacing * 100:g} cm grid", SpatialExpansion(
                 grid_of(problem, settings, spacing), problem.height_map.ground(), problem.params.as_array(),
-                scoring_of(problem, settings.cost_weights), particles)))
-    return run_searches(problem, searches, settings, budget, name)
+                scoring_of(problem, settings.cost_weights), particles), budget))
+    return run_searches(problem, searches, settings, name)
 
 
-def run_searches(problem: SpatialProblem, searches, settings: SpatialStepSettings, budget: Budget, name: str):
-    """Run the (label, expansion) ``searches`` in turn, each within ``budget``, until one finds a sequence or the time
-    runs out (``planners.search.tree.Attempts``: the planar planners' accounting, safe hops included where
+def run_searches(problem: SpatialProblem, searches, settings: SpatialStepSettings, name: str):
+    """Run the (label, expansion, budget) ``searches`` in turn, each within its budget, until one finds a sequence or
+    the time runs out (``planners.search.tree.Attempts``: the planar planners' accounting, safe hops included where
     ``settings.safe_hops``): (the plan, the last search's tree)."""
     tried = Attempts(name, problem.target_x, settings.safe_hops, target_y=problem.target[1])
-    for label, expansion in searches:
+    for label, expansion, budget in searches:
         with compiling():
             result = search(problem, expansion, NO_STATE, settings.n_sequences, budget, problem.reach)
         if tried.ended(label, result):
