@@ -196,8 +196,8 @@ def test_planning_speed_times_the_planners_on_a_map_suite(run_script, tmp_path, 
     assert "suite gaps-40: 2 cases" in out and set(rows) == {"step", "lstm-guided"}
     assert all(row[1] in ("0/2", "1/2", "2/2") and float(row[2]) > 0 for row in rows.values()), out
     assert "mean t_plan step / lstm-guided = " in out and "x; step-map calls " in out
-    if rows["step"][1] == rows["lstm-guided"][1] == "2/2":   # the ratios again over the calls both finished
-        assert "over the 2 calls both found a plan: mean t_plan " in out, out
+    assert rows["step"][1] == rows["lstm-guided"][1] == "2/2", out   # the ratios again over the calls both finished
+    assert "over the 2 calls both found a plan: mean t_plan " in out, out
     code, out, err = run_script("planning_speed", "--suites", tmp_path / "s.json", "--planners", "step,angle",
                                 "--pairs", "step:angle")
     assert code == 2 and "angle" in err and "profiles" in err and len(err.strip().splitlines()) == 1 and not out
