@@ -5,8 +5,8 @@ is solid, clear of edges and inside the window, up to ``tiers[0]`` cells, then t
 on. They are aimed and flown as Step-space's candidates are (``planners.core.spatial_grid``) and the successful ones
 are the node's children; a tier none of whose hops succeeds hands over to the next at once. The model is run in the
 core (``planners.core.spatial_model``), so a node costs one small forward pass and a few dozen hops instead of the
-grid's hundreds, and a node's wider tier is flown only where its first leads nowhere: one search, not a search per
-width."""
+grid's hundreds (its logits are kept for its next tier), and a node's wider tier is flown only where its first leads
+nowhere: one search, not a search per width."""
 from __future__ import annotations
 
 import math
@@ -94,15 +94,21 @@ def sibling_isolation(targets, ok, spacing, at_failure):
 @compiled()
 def expand_spatial_sampled(expansion, state, tree, size, node, slots):
     """The guided expansion of ``node`` (``planners.core.best_first.expand``): the children of its next tier that has
-    any (the module doc), whether a tier is left, and the tiers expanded (``state``: node -> tiers done)."""
+    any (the module doc), whether a tier is left, and the search's state (``state``: node -> tiers done, and node ->
+    the model's logits of a node with a tier left, so that a node the search comes back to is not read again)."""
     e = expansion
+    done, kept = state
     a = (tree.apex[node, 0], tree.apex[node, 1], tree.apex[node, 2], tree.apex[node, 3], tree.apex[node, 4])
-    t0 = now()
-    history, n_history = branch_footholds(tree, node, e.patch_view.history)
-    patch, features, past = node_view(a, history, n_history, (e.target_x, e.target_y), e.ground, e.params, e.patch_view)
-    logits = logits_of(patch, features, past, e.model)
-    slots[MODEL] += now() - t0
-    tier = state[node] if node in state else 0
+    tier = done[node] if node in done else 0
+    if tier > 0:
+        logits = kept.pop(node)
+    else:
+        t0 = now()
+        history, n_history = branch_footholds(tree, node, e.patch_view.history)
+        patch, features, past = node_view(a, history, n_history, (e.target_x, e.target_y), e.ground, e.params,
+                                          e.patch_view)
+        logits = logits_of(patch, features, past, e.model)
+        slots[MODEL] += now() - t0
     calls = 0
     while True:
         targets = model_candidates(a, logits, e, e.tiers[tier - 1] if tier > 0 else 0, e.tiers[tier])
@@ -111,7 +117,9 @@ def expand_spatial_sampled(expansion, state, tree, size, node, slots):
         tier += 1
         if ok.any() or tier == e.tiers.shape[0]:
             break
-    state[node] = tier
+    done[node] = tier
+    if tier < e.tiers.shape[0]:
+        kept[node] = logits
     d = sibling_isolation(targets, ok, e.patch_view.cell / e.split, e.grid.at_failure)
     found = children_from(targets, ok, angles, apexes, d, calls, e.scoring)
     return Children(found.angles, found.footholds, found.apexes, found.keys, found.ode_calls, found.beyond,
@@ -120,5 +128,6 @@ def expand_spatial_sampled(expansion, state, tree, size, node, slots):
 
 @compiled(inline="always")
 def start_sampled_spatial(expansion, admission, root):
-    """The guided search's start: no node expanded yet (node -> tiers done), no admission state."""
-    return Dict.empty(types.int64, types.int64), NO_STATE
+    """The guided search's start: no node expanded yet (node -> tiers done, node -> logits kept), no admission
+    state."""
+    return (Dict.empty(types.int64, types.int64), Dict.empty(types.int64, types.float64[:, ::1])), NO_STATE
