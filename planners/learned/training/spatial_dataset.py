@@ -41,12 +41,17 @@ def case_of(cfg: SpatialDatasetConfig, index: int, params: SlipParams) -> MapCas
     return MapCase(f"{family}-{index}", height_map, (x, y, z, speed * np.cos(heading), speed * np.sin(heading)), goal)
 
 
+# The expert's budget: Step-space's nodes, which give the same plans on any machine; the time limit is only a safety
+# net, far above any call (a starved machine at the planners' 60 s would cut calls short and write another dataset)
+EXPERT_BUDGET = Budget(max_time_s=600.0)
+
+
 class RecordingStepSpace:
     """Step-space on a height map that keeps the samples of every plan it finds."""
 
     name = "step"
 
-    def __init__(self, view: ViewSettings, budget: Budget = Budget()):
+    def __init__(self, view: ViewSettings, budget: Budget = EXPERT_BUDGET):
         self.view, self.budget, self.samples = view, budget, []
 
     def plan(self, apex, window, goal, params):
