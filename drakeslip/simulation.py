@@ -220,11 +220,13 @@ def failure_of(hopper: HybridHopper, hopper_context, time: float, timed_out: boo
     return events, failure_event
 
 
-def advance(simulator, end: float, where: Callable[[], str]) -> None:
-    """Initialize ``simulator`` and advance it to ``end``; when its integrator (or a callback it calls) raises, a
-    ``SimulationCrash`` in one line naming the time, ``where()`` (the system's mode and state) and the cause."""
+def advance(simulator, end: float, where: Callable[[], str], initialize: bool = True) -> None:
+    """Initialize ``simulator`` (unless it goes on from where an earlier call stopped it: ``initialize`` False) and
+    advance it to ``end``; when its integrator (or a callback it calls) raises, a ``SimulationCrash`` in one line naming
+    the time, ``where()`` (the system's mode and state) and the cause."""
     try:
-        simulator.Initialize()
+        if initialize:
+            simulator.Initialize()
         simulator.AdvanceTo(end)
     except SimulationCrash:
         raise

@@ -24,8 +24,10 @@ drakeslip-map-suite/1, planners/formats/map_suite.py) is taken the same way: eac
 loop on its map (planners/spatial_loop.py: the window ahead and aside, the plan's first footholds flown on Drake's
 spatial SLIP, or with --backend fast on the compiled spatial step map), through the same cache, and the same table
 is printed, with or without a noise profile (its 3D form, drakeslip/spatial/noise.py) and the robot's map filter.
-There is no robot on maps yet: --backend multibody and --template are refused in one line, as are planners that plan
-on profiles only:
+--backend multibody runs each map case on the spatial robot (drakeslip/spatial/multibody, any hopper's: one Diagram
+per case with the map loop as a planner system, planners/spatial_robot_loop.py), the planners planning for the
+hopper's own SLIP: there is no template fitted to the spatial robot yet, so --template and --no-pump are refused on
+maps, as are planners that plan on profiles only:
 
     python3 examples/evaluate.py --suite out/maps/gaps-7000.json --planners step --backend fast --jobs 2 \
         --out out/gaps.json
@@ -33,8 +35,8 @@ on profiles only:
 The planners plan for the suite's hopper (the paper's when it records none), and the results record it. --hopper (a
 hopper file or folder, examples/train_hopper.py) must be that hopper, whose folder's weights the planners then
 read; a suite drawn for another hopper is refused in one line (examples/make_suites.py --hopper draws one for it).
---backend multibody runs the paper's hopper only (the robot and its fitted template are built for it); a suite of
-another hopper is refused in one line.
+--backend multibody on a planar suite runs the paper's hopper only (the planar robot and its fitted template are built
+for it); a planar suite of another hopper is refused in one line.
 
 Exit status: 0 when the evaluation ran (whatever the planners' success), 2 for a usage or input error (a suite value
 outside the bounds of drakeslip/bounds.py included), refused in one line before any case runs, 3 a simulation crashed
@@ -114,8 +116,9 @@ def checked_labels(ap: cli.ArgumentParser, args) -> tuple[list[str], dict]:
     return labels, options
 
 
-def loop_configs(ap: cli.ArgumentParser, args, labels: list[str]) -> dict:
-    """{label: the ClosedLoopConfig its cases run with}, or one line and exit status 2 for a bad --map-filter."""
+def loop_configs(ap: cli.ArgumentParser, args, labels: list[str], maps: bool) -> dict:
+    """{label: the ClosedLoopConfig its cases run with}, or one line and exit status 2 for a bad --map-filter. On a map
+    suite the robot's parameters come with the suite's hopper (``checked_suite``)."""
     loop_options = {name: value for name, value in (("executed_per_plan", args.executed),
                                                      ("map_filter", args.map_filter)) if value is not None}
     if args.map_filter is not None:
@@ -123,7 +126,7 @@ def loop_configs(ap: cli.ArgumentParser, args, labels: list[str]) -> dict:
             check_window(args.map_filter, "map_filter")
         except ValueError as error:
             ap.error(f"--map-filter: {error}")
-    if args.backend == "multibody":   # the planners plan for the template fitted to the robot, when there is one
+    if args.backend == "multibody" and not maps:   # the planners plan for the template fitted to the robot
         from drakeslip.hopper_file import load_hopper
         from drakeslip.multibody.fit import fitted_template
 
@@ -149,16 +152,17 @@ def on_maps(ap: cli.ArgumentParser, args) -> bool:
         maps = is_map_suite(read_json(args.suite, "suite file"))
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    refused = [flag for flag, used in (("--backend multibody", args.backend == "multibody"),
-                                       ("--template", args.template is not None)) if used]
+    refused = [flag for flag, used in (("--template", args.template is not None), ("--no-pump", args.no_pump))
+               if used]
     if maps and refused:
-        ap.error(f"{', '.join(refused)}: not applied on height maps ({args.suite} is a map suite: run it with "
-                 "--backend drake or fast, no --template)")
+        ap.error(f"{', '.join(refused)}: not applied on height maps ({args.suite} is a map suite: the spatial robot "
+                 "has no fitted template and no energy pump)")
     return maps
 
 
 def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict, configs: dict, maps: bool):
-    """(the suite, {label: its planner spec for the suite's hopper}), the workers' weights read; or one line and exit
+    """(the suite, {label: its planner spec for the suite's hopper}, {label: its ClosedLoopConfig}, on a map suite on
+    the robot with the spatial robot of the suite's hopper), the workers' weights read; or one line and exit
     status 2 for a malformed suite, another hopper's suite, a bad option, a missing or damaged weights file, and on
     a map suite a planner that plans on profiles only or a loop the map loop does not run (a preset's map filter)."""
     from drakeslip.jobs.executors import prepare
@@ -174,7 +178,7 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
         hopper = hopper_for_suite(suite, args.hopper)
         if maps:
             check_map_run(configs)
-        if args.backend == "multibody":
+        if args.backend == "multibody" and not maps:
             from drakeslip.multibody.robot import check_robot_hopper
 
             check_robot_hopper(hopper, f"suite file {args.suite}")
@@ -184,7 +188,14 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
             check_map_planners()
     except (OSError, ValueError) as error:  # a malformed suite, a bad option, a missing or damaged weights file
         ap.error(f"--{error}" if str(error).startswith("options for") else str(error))
-    return suite, specs
+    if maps and args.backend == "multibody":
+        from dataclasses import replace
+
+        from drakeslip.spatial.multibody.robot import SpatialRobotParams
+
+        robot = SpatialRobotParams.for_hopper(hopper.params.with_friction(suite.friction))
+        configs = {label: replace(config, robot=robot) for label, config in configs.items()}
+    return suite, specs, configs
 
 
 @cli_physics.reports_crashes
@@ -194,8 +205,8 @@ def main(argv=None) -> int:
     labels, options = checked_labels(ap, args)
     executor = cli.executor(args)
     maps = on_maps(ap, args)
-    configs = loop_configs(ap, args, labels)
-    suite, specs = checked_suite(ap, args, labels, options, configs, maps)
+    configs = loop_configs(ap, args, labels, maps)
+    suite, specs, configs = checked_suite(ap, args, labels, options, configs, maps)
     cli.announce(argv)
 
     from drakeslip.jobs.runner import remove, write_json

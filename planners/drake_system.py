@@ -62,8 +62,86 @@ class PlanningLog:
         return count
 
 
-class FootstepPlannerSystem(LeafSystem):
-    """The loop's planner at the robot's apexes (see the module doc).
+class ApexPlannerSystem(LeafSystem):
+    """A footstep planner that plans at a robot's flight apexes, in two or three dimensions: each period it reads the
+    body's vertical velocity from the plant's state, marks an apex where a body that rose faster than RISING stops
+    rising, and there, at every ``replan_every``-th apex or when the command holds no footholds, makes the planning
+    call ``plan_at`` (a subclass's) and outputs its command.
+
+    Input port
+      state: the plant's state vector.
+    Output port
+      command: abstract (``no_command`` before the first plan; each plan's stamp is the last's + 1).
+    State
+      discrete (``ApexWatch``): rising, apexes_since_plan.
+      abstract: the command; the planning log (``log``, a value the subclass defines, never changed in place).
+    Parameters
+      ``state_size``, ``vertical_rate`` (the index of the body's vertical velocity in the state), ``time_step`` (how
+      often it checks for an apex), ``replan_every``, ``no_command`` and ``log`` (the first values). Everything that
+      changes lives in the Context, so one system can be simulated in many contexts.
+    """
+
+    def __init__(self, state_size: int, vertical_rate: int, no_command, log, *, time_step: float = 1e-3,
+                 replan_every: int = 1):
+        super().__init__()
+        self.replan_every, self._vertical_rate = int(replan_every), int(vertical_rate)
+        self.DeclareVectorInputPort("state", state_size)
+        self._command = self.DeclareAbstractState(AbstractValue.Make(no_command))
+        self._log = self.DeclareAbstractState(AbstractValue.Make(log))
+        self._watch = self.DeclareDiscreteState(len(ApexWatch.get_fields()))
+        self.DeclarePeriodicUnrestrictedUpdateEvent(time_step, 0.0, self._update)
+        self.DeclareAbstractOutputPort("command", lambda: AbstractValue.Make(no_command), self._output,
+                                       prerequisites_of_calc={self.all_state_ticket()})
+
+    def plan_at(self, state: np.ndarray, stamp: int, log) -> tuple:
+        """(the command numbered ``stamp``, the log after it): the planning call at the apex the plant's ``state``
+        vector is at."""
+        raise NotImplementedError
+
+    def command(self, context):
+        """The command in the system's ``context``."""
+        return context.get_abstract_state(self._command).get_value()
+
+    def log(self, context):
+        """The planning log in the system's ``context``."""
+        return context.get_abstract_state(self._log).get_value()
+
+    def start_at(self, context, state: np.ndarray):
+        """Plan at the plant's ``state`` before a run starts there (the command numbered 0) into the system's
+        ``context``, so that the leg starts aimed at the first foothold; returns the command."""
+        return self.begin(context, *self.plan_at(state, 0, self.log(context)))
+
+    def begin(self, context, command, log):
+        """Set the first ``command`` and the ``log`` after it in the system's ``context``; returns the command."""
+        context.SetAbstractState(self._command, command)
+        context.SetAbstractState(self._log, log)
+        return command
+
+    def _output(self, context, output):
+        output.set_value(self.command(context))
+
+    def _update(self, context, state):
+        full = self.get_input_port(0).Eval(context)
+        rate = full[self._vertical_rate]
+        watch = ApexWatch(state.get_mutable_discrete_state(self._watch).get_mutable_value())
+        command = self.command(context)
+        at_apex = watch.rising > 0 and rate <= 0.0
+        watch.rising = 1.0 if rate > RISING else (watch.rising if rate > 0.0 else 0.0)
+        if command.stamp >= 0:
+            if not at_apex:
+                return
+            watch.apexes_since_plan += 1.0
+            if watch.apexes_since_plan < self.replan_every and command.footholds:
+                return
+        watch.apexes_since_plan = 0.0
+        command, log = self.plan_at(full, command.stamp + 1, self.log(context))
+        state.get_mutable_abstract_state(self._command).set_value(command)
+        state.get_mutable_abstract_state(self._log).set_value(log)
+
+
+class FootstepPlannerSystem(ApexPlannerSystem):
+    """The loop's planner at the planar robot's apexes (see the module doc), an ``ApexPlannerSystem`` whose command
+    is a ``FootholdCommand`` and whose log is a ``PlanningLog``.
 
     Input port
       state: the plant's state vector, read through ``layout``.
@@ -82,33 +160,19 @@ class FootstepPlannerSystem(LeafSystem):
 
     def __init__(self, replanner: Replanner, layout: StateLayout, *, time_step: float = 1e-3, seed: int = 0,
                  replan_every: int = 1, pump: EnergyPump | None = None):
-        super().__init__()
-        self.replanner, self.replan_every, self.pump = replanner, int(replan_every), pump
+        self.replanner, self.pump = replanner, pump
         self._q, self._v = list(layout.q), list(layout.v)
-        self.DeclareVectorInputPort("state", max(layout.v) + 1)
-        no_command = FootholdCommand((), replanner.terrain, None, -1)
-        self._command = self.DeclareAbstractState(AbstractValue.Make(no_command))
-        self._log = self.DeclareAbstractState(AbstractValue.Make(PlanningLog(np.random.default_rng(seed))))
-        self._watch = self.DeclareDiscreteState(len(ApexWatch.get_fields()))
-        self.DeclarePeriodicUnrestrictedUpdateEvent(time_step, 0.0, self._update)
-        self.DeclareAbstractOutputPort("command", lambda: AbstractValue.Make(no_command), self._output,
-                                       prerequisites_of_calc={self.all_state_ticket()})
-
-    def command(self, context) -> FootholdCommand:
-        """The command in the system's ``context``."""
-        return context.get_abstract_state(self._command).get_value()
+        super().__init__(max(layout.v) + 1, layout.v[1], FootholdCommand((), replanner.terrain, None, -1),
+                         PlanningLog(np.random.default_rng(seed)), time_step=time_step, replan_every=replan_every)
 
     def records(self, context) -> tuple:
         """One record per planning call made in the system's ``context``."""
-        return context.get_abstract_state(self._log).get_value().records
+        return self.log(context).records
 
     def start(self, context, apex: ApexState) -> FootholdCommand:
         """Plan from ``apex`` before a run starts there (the command numbered 0) into the system's ``context``,
         so that the leg starts aimed at the first foothold; returns the command."""
-        command, log = self._plan(apex, 0, context.get_abstract_state(self._log).get_value())
-        context.SetAbstractState(self._command, command)
-        context.SetAbstractState(self._log, log)
-        return command
+        return self.begin(context, *self._plan(apex, 0, self.log(context)))
 
     def last_hop(self, records) -> tuple | None:
         """The hop that reached this apex, as the last planning call saw it start, (x, z, xdot, foothold x): the
@@ -119,27 +183,9 @@ class FootstepPlannerSystem(LeafSystem):
         flown = () if last.get("in_place") else flown_footholds(last)
         return (*last.get("seen_apex", last["apex"]), flown[0]) if flown else None
 
-    def _output(self, context, output):
-        output.set_value(self.command(context))
-
-    def _update(self, context, state):
-        full = self.get_input_port(0).Eval(context)
-        q, v = full[self._q], full[self._v]
-        watch = ApexWatch(state.get_mutable_discrete_state(self._watch).get_mutable_value())
-        command = self.command(context)
-        at_apex = watch.rising > 0 and v[1] <= 0.0
-        watch.rising = 1.0 if v[1] > RISING else (watch.rising if v[1] > 0.0 else 0.0)
-        if command.stamp >= 0:
-            if not at_apex:
-                return
-            watch.apexes_since_plan += 1.0
-            if watch.apexes_since_plan < self.replan_every and command.footholds:
-                return
-        watch.apexes_since_plan = 0.0
-        apex = ApexState(float(q[0]), float(q[1]), float(v[0]))
-        command, log = self._plan(apex, command.stamp + 1, context.get_abstract_state(self._log).get_value())
-        state.get_mutable_abstract_state(self._command).set_value(command)
-        state.get_mutable_abstract_state(self._log).set_value(log)
+    def plan_at(self, state: np.ndarray, stamp: int, log: PlanningLog) -> tuple:
+        q, v = state[self._q], state[self._v]
+        return self._plan(ApexState(float(q[0]), float(q[1]), float(v[0])), stamp, log)
 
     def _plan(self, apex: ApexState, stamp: int, log: PlanningLog) -> tuple:
         """(the command numbered ``stamp``, the log after it): plan from the true ``apex`` as the robot estimates

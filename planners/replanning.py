@@ -73,9 +73,13 @@ class ClosedLoopConfig:
 
 
 def robot_record(robot) -> dict:
-    """The multibody robot a run executes on, as its results record it: the model file and every parameter."""
+    """The multibody robot a run executes on, as its results record it: the model file and every parameter (the
+    planar robot's by default, the spatial robot's for a ``SpatialRobotParams``)."""
     from drakeslip.multibody.robot import SDF_FILE, RobotParams
+    from drakeslip.spatial.multibody.robot import SDF_FILE as SPATIAL_SDF_FILE, SpatialRobotParams
 
+    if isinstance(robot, SpatialRobotParams):
+        return {"model": f"drakeslip/spatial/multibody/{SPATIAL_SDF_FILE}", "params": robot.to_dict()}
     return {"model": f"drakeslip/multibody/{SDF_FILE}", "params": (robot or RobotParams()).to_dict()}
 
 

@@ -22,6 +22,7 @@ way.
 """
 from __future__ import annotations
 
+import copy
 import math
 from dataclasses import dataclass
 
@@ -40,7 +41,8 @@ from planners.core.spatial_tree import reaches
 from planners.replanning import GOAL_SIGMAS, ClosedLoopConfig, case_result, case_seed, drawn_hopper
 from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE, goal_reach
 
-MAP_LOOP_BACKENDS = ("drake", "fast")
+# the template's backends (``run_map_case``) and the spatial robot (``planners.spatial_robot_loop``)
+MAP_LOOP_BACKENDS = ("drake", "fast", "multibody")
 
 
 @dataclass(frozen=True)
@@ -73,10 +75,14 @@ class MapLoop:
     """The loop's state for one case: the plans so far, the footholds left to fly, the outcome; under noise, the
     case's generator, the executed hopper and the errors drawn for the current plan's hops."""
 
-    def __init__(self, planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig):
+    def __init__(self, planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig,
+                 checks_flying_on: bool = False):
         if config.backend not in MAP_LOOP_BACKENDS:
             raise ValueError(f"backend {config.backend!r} does not run height maps; choose one of {MAP_LOOP_BACKENDS}")
         self.planner, self.case, self.params, self.config = planner, case, params, config
+        # a robot's loop flies on along the last plan only where the template's hop from the apex told to its next
+        # foothold lands there (the robot is not where the template would be: its last plan may no longer fit)
+        self.checks_flying_on = checks_flying_on
         units = units_of(params)
         self.ahead, self.behind = WINDOW_AHEAD * units.length, WINDOW_BEHIND * units.length
         self.aside, self.radius = WINDOW_ASIDE * units.length, GOAL_RADIUS * units.length
@@ -86,10 +92,20 @@ class MapLoop:
         # a robot unsure of its x by sigma aims 5 sigma past the goal, so that believing it is past means being past
         self.aim = past_goal(case.apex, case.goal, GOAL_SIGMAS * self.noise.apex[0])
         self.plans, self.queue, self.failure, self.done = [], [], None, False
+        self.window = None   # the map the last plan was made on, as sensed
         self.rest = []   # the footholds of the last sequence found after those queued
         self.before = case.apex[:2]   # where the next hop's way starts: the apex a plan starts from, then its footholds
         self.hops, self.flown = 0, 0   # hops in all, and of the current plan
         self.apex_errors = self.angle_errors = None   # the current plan's hops' (None without noise)
+
+    def copy(self) -> "MapLoop":
+        """A copy that changes apart from this loop: its own records, queue and generator (the planner, the case and
+        the settings shared)."""
+        twin = copy.copy(self)
+        twin.plans = [dict(record, executed=list(record["executed"])) for record in self.plans]
+        twin.queue, twin.rest = list(self.queue), list(self.rest)
+        twin.rng = copy.deepcopy(self.rng)
+        return twin
 
     def told(self, apex, hop: int) -> tuple:
         """The apex the robot is told at the current plan's ``hop``: the true one plus its drawn error."""
@@ -97,9 +113,10 @@ class MapLoop:
             return tuple(apex)
         return tuple(float(v) for v in np.asarray(apex, dtype=np.float64) + self.apex_errors[hop])
 
-    def command(self, apex, hop: int):
-        """The leg command at ``apex``: plan when the queue is empty, then aim at the next foothold from the apex told;
-        under noise, the angles the leg reaches. None ends the run (goal passed, no plan, hop cap)."""
+    def next_foothold(self, apex):
+        """The foothold the hop from ``apex`` aims at: the next of the queue, planned when it is empty. None ends the
+        run (goal passed, no plan, hop cap). A robot's loop (``planners.spatial_robot_loop``) asks this at each
+        apex and leaves the aiming to the robot's controller."""
         if self.done or self.failure is not None:
             return None
         if self.hops >= self.config.max_hops:
@@ -113,6 +130,14 @@ class MapLoop:
         if passes_goal(self.before, target, self.aim, self.radius):
             self.done = True   # this hop passes the goal: the run ends at the apex after it
         self.before = target
+        return target
+
+    def command(self, apex, hop: int):
+        """The leg command at ``apex``: the leg angles that aim at ``next_foothold`` from the apex told; under noise,
+        the angles the leg reaches. None ends the run (goal passed, no plan, hop cap)."""
+        target = self.next_foothold(apex)
+        if target is None:
+            return None
         try:
             angles = leg_angles_for(self.told(apex, self.flown - 1), target, self.params)
         except ValueError:
@@ -121,6 +146,15 @@ class MapLoop:
         if self.angle_errors is None:
             return angles
         return tuple(float(a + e) for a, e in zip(angles, self.angle_errors[self.flown - 1]))
+
+    def hop_lands(self, apex, foothold, window: HeightMap) -> bool:
+        """Whether the template's hop from ``apex`` aimed at ``foothold`` lands there (within 1 cm) on ``window``."""
+        try:
+            hop = step3d(tuple(apex), leg_angles_for(tuple(apex), foothold, self.params), window, self.params)
+        except ValueError:   # out of the leg's reach
+            return False
+        miss = math.hypot(hop.foothold[0] - foothold[0], hop.foothold[1] - foothold[1])
+        return bool(hop.ok) and miss < 0.01 * units_of(self.params).length
 
     def replan(self, apex) -> bool:
         """Plan from ``apex`` (told with this plan's first error) on the window the robot senses; False: no plan."""
@@ -133,6 +167,7 @@ class MapLoop:
                                              self.aside, self.behind)
         if not self.noise.silent:
             window = perceived_map(self.noise, window, self.rng, self.config.map_filter)
+        self.window = window
         try:
             plan = self.planner.plan(tuple(float(v) for v in seen), window, goal, self.params)
             record = plan.summary()
@@ -147,7 +182,8 @@ class MapLoop:
         self.plans.append(record)
         if plan is not None and plan.success:
             footholds, self.before = [tuple(f) for f in plan.footholds], seen[:2]
-        elif self.rest:   # on along the last sequence found, from its last foothold flown
+        elif self.rest and (not self.checks_flying_on or self.hop_lands(seen, self.rest[0], window)):
+            # on along the last sequence found, from its last foothold flown
             footholds = self.rest
             record["flies_on"] = len(footholds)
         else:   # a plan's safe hops where the planner was asked for them: at most k, so none is left after them
@@ -163,6 +199,9 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
     """One case on a height map in the receding-horizon loop: (the case's result as ``case_result`` writes it, the
     Drake run (``SimulationResult3D``; None on the fast backend)). ``final_x`` is the last apex's x; "final" in the
     result holds its (x, y); under noise "executed_params" is the hopper that ran."""
+    if config.backend == "multibody":
+        raise ValueError("the multibody backend runs a map case on the robot: "
+                         "planners.spatial_robot_loop.run_map_case_on_robot")
     loop = MapLoop(planner, case, params, config)
     sim, reached = None, []   # reached: the footholds the hopper touched down on
     if config.backend == "drake":
@@ -184,6 +223,14 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
             apex = tuple(hop.next_apex)
             reached.append(hop.foothold)
         final = apex
+    return map_case_result(loop, case, failure, final, reached), sim
+
+
+def map_case_result(loop: MapLoop, case: MapCase, failure: str | None, final, reached) -> dict:
+    """The result of a run of ``loop`` on ``case`` (on any backend) that ended with ``failure`` (None: the loop's last
+    hop was flown) at the apex ``final`` (x, y, ...), having touched down on the footholds ``reached``: as
+    ``case_result`` writes it, with "final" (x, y). A run the loop did not end, or under noise one whose hop between
+    the last two footholds it reached does not pass the goal, stopped short."""
     if failure is None and not loop.done:
         failure = "STOPPED_SHORT"
     noisy = not loop.noise.silent
@@ -193,4 +240,4 @@ def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopC
         # reached did not
     result = case_result(case.id, failure, float(final[0]), loop.plans, loop.executed if noisy else None)
     result["final"] = [float(final[0]), float(final[1])]
-    return result, sim
+    return result

@@ -172,7 +172,7 @@ def test_evaluate_runs_a_users_map_file(run_script, tmp_path):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--backend", "multibody"], "--backend multibody: not applied on height maps"),
+    (["--backend", "multibody", "--no-pump"], "--no-pump: not applied on height maps"),
     (["--template", "{suite}"], "--template: not applied on height maps"),
     (["--backend", "fast", "--planners", "angle"], "planners angle plan on profiles only, not on height maps"),
     (["--backend", "fast", "--planners", "step@drake", "--options", '{{"step@drake": {{"step_map": "drake"}}}}'],

@@ -52,7 +52,8 @@ def rasterized(rectangles, shape) -> np.ndarray:
 
 @pytest.mark.parametrize("family", ["gaps", "stones", "stairs", "course"])
 def test_merged_boxes_cover_exactly_the_solid_cells(family):
-    from drakeslip.spatial.meshcat_replay import height_map_boxes, merge_cells
+    from drakeslip.spatial.heightmap import merge_cells
+    from drakeslip.spatial.meshcat_replay import height_map_boxes
     from drakeslip.spatial.viz import crop
 
     m = height_map_family(family)(1, 0.7)
@@ -73,7 +74,7 @@ def test_merged_boxes_cover_exactly_the_solid_cells(family):
 
 
 def test_merge_cells_on_a_small_grid():
-    from drakeslip.spatial.meshcat_replay import merge_cells
+    from drakeslip.spatial.heightmap import merge_cells
 
     nan = math.nan
     cells = np.array([[0.0, 0.0, nan, 0.1], [0.0, 0.0, nan, 0.1], [0.2, 0.0, 0.0, 0.0]])

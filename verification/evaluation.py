@@ -13,9 +13,10 @@ ignored, and computes the rest. The results record the same (each planner's "opt
 SHA-256 by file) with the code version the keys hold, the libraries, machine and date ("provenance").
 
 A height-map suite (``planners.formats.map_suite.MapSuite``) runs the same way, each case in the loop on its map
-(``planners.spatial_loop.run_map_case``): its key holds the map's digest, its start and its goal instead of a
-terrain, and a task carries a drawn map's record rather than its cells (``task_map``). There is no robot on maps: a
-run that asks for one is refused before any case (``check_map_run``), as is a planner that plans on profiles only.
+(``planners.spatial_loop.run_map_case``; on the multibody backend on the spatial robot,
+``planners.spatial_robot_loop.run_map_case_on_robot``): its key holds the map's digest, its start and its goal instead
+of a terrain, and a task carries a drawn map's record rather than its cells (``task_map``). A planner that plans on
+profiles only is refused before any case (``check_map_run``).
 """
 from __future__ import annotations
 
@@ -111,6 +112,10 @@ def run_map_task(label: str, case: dict, friction: float, config: ClosedLoopConf
     label, with the planners ``prepare_worker`` built, for the hopper of ``hopper`` (``SlipParams`` fields)."""
     params = params_from_fields(hopper, "the task's hopper").with_friction(friction)
     map_case = MapCase(case["id"], map_of_task(case["map"]), tuple(case["apex"]), tuple(case["goal"]))
+    if config.backend == "multibody":
+        from planners.spatial_robot_loop import run_map_case_on_robot
+
+        return run_map_case_on_robot(_WORKER["planners"][label], map_case, params, config)
     return run_map_case(_WORKER["planners"][label], map_case, params, config)[0]
 
 

@@ -1,13 +1,13 @@
 """examples/plan_and_hop.py on a height map: the spatial hopper planned for and hopped over a map family's draw
 or a height-map file, in the receding-horizon loop of ``planners.spatial_loop``.
 
-The script's flags keep their meaning where the spatial loop has one: --start-x, --height and --speed set the start
-apex (at y = 0, heading +x; left out: x = -1 m, 0.9 m above the ground, 2 m/s, each made the hopper's as a map
-suite makes it, ``planners.formats.map_suite``), --goal is a point X,Y (a single number is (X, 0); left out: the
-map suites' goal (10, 0) made the hopper's, at most one leg length before a map file's end), --seed and
---difficulty draw a family's map. What the map loop does not do is refused in one line before any work: the
-multibody robot, a planner that plans on profiles only or with options the map search does not take (the default
-here is ``step``). A noise profile applies in its 3D form (the default is none here).
+The script's flags keep their meaning where the spatial loop has one: --start-x, --height and --speed set the start apex
+(at y = 0, heading +x; left out: x = -1 m, 0.9 m above the ground, 2 m/s, each made the hopper's as a map suite makes
+it, ``planners.formats.map_suite``), --goal is a point X,Y (a single number is (X, 0); left out: the map suites' goal
+(10, 0) made the hopper's, at most one leg length before a map file's end), --seed and --difficulty draw a family's map.
+What the script does not do on a map is refused in one line before any work: the multibody robot (evaluate.py runs map
+suites on the spatial robot), a planner that plans on profiles only or with options the map search does not take (the
+default here is ``step``). A noise profile applies in its 3D form (the default is none here).
 
 Everything that loads pydrake, numba or matplotlib is imported inside the functions, so the script's --help stays
 fast.
@@ -73,7 +73,8 @@ def goal_argument(text: str) -> tuple:
 def refuse(ap, args) -> None:
     """One line and exit status 2 for a flag the map loop does not run (module doc)."""
     if args.backend == "multibody":
-        ap.error("--backend multibody: the multibody robot hops on terrain profiles only; use drake or fast on a map")
+        ap.error("--backend multibody: this script draws the planar robot only; run the spatial robot on maps with "
+                 "evaluate.py --backend multibody, or use drake or fast here")
     if args.html and args.backend == "fast":
         ap.error("--html: the fast backend logs no trajectory to replay; use --backend drake")
     if args.difficulty is not None and args.terrain.path is not None:

@@ -178,6 +178,16 @@ def neutral_angle(xdot: float, leg_length: float, stance: float, offset: float =
     return math.asin(max(-0.8, min(0.8, (0.5 * xdot * stance + offset) / leg_length)))
 
 
+def swing_inertia(params, reach: float, leg_com: float, leg_inertia: float) -> float:
+    """The leg's inertia about the hip in flight [kg m^2], the body free: the foot ``reach`` and the upper leg's
+    centre of mass ``leg_com`` below the hip (each mass reduced by the rest of the robot's, as a swing against a
+    free body sees it) plus the upper leg's own ``leg_inertia``; ``params`` a robot's (``total_mass``,
+    ``foot_mass``, ``leg_mass``). Over the body's inertia, the share of a swing the body turns back."""
+    m = params.total_mass
+    return (params.foot_mass * (m - params.foot_mass) / m * reach ** 2
+            + params.leg_mass * (m - params.leg_mass) / m * leg_com ** 2 + leg_inertia)
+
+
 class HopperController(LeafSystem):
     """The robot's controller at its control rate (``RobotParams.time_step``); see the module doc.
 
@@ -207,11 +217,7 @@ class HopperController(LeafSystem):
         self.pitch_inertia = params.body_pitch_inertia
         self.foot_share = params.foot_mass / params.slip.mass
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
-        m_total = params.total_mass
-        reach = params.rest_extension - RETRACT
-        leg_inertia = (params.foot_mass * (m_total - params.foot_mass) / m_total * reach ** 2
-                       + params.leg_mass * (m_total - params.leg_mass) / m_total * self.leg_com ** 2
-                       + self.leg_inertia)
+        leg_inertia = swing_inertia(params, params.rest_extension - RETRACT, self.leg_com, self.leg_inertia)
         self.swing_ratio = leg_inertia / params.body_pitch_inertia
         self.state_port = self.DeclareVectorInputPort("state", max(layout.v) + 1)
         empty = FootholdCommand((), Terrain.flat(), None, -1)

@@ -60,20 +60,28 @@ def build_diagram(terrain: Terrain, params: RobotParams | None = None, *, make_p
     builder.Connect(plant.get_state_output_port(), controller.state_port)
     builder.Connect(controller.get_output_port(0), plant.get_actuation_input_port())
     planner_system = None if make_planner is None else make_planner(layout)
+    visualizer = command_and_view(builder, plant, scene_graph, controller.command_port, planner_system, meshcat)
+    return HopperDiagram(builder.Build(), plant, scene_graph, controller, parts, layout, params, terrain,
+                         planner_system, visualizer)
+
+
+def command_and_view(builder, plant, scene_graph, command_port, planner_system=None, meshcat=None):
+    """Feed the controller's ``command_port`` from ``planner_system`` (added to ``builder``, its ``state`` input
+    on the plant's state, its ``command`` output on the port) or, without one, export the port as the diagram's
+    ``command`` input; with a ``pydrake.geometry.Meshcat``, draw ``scene_graph``'s illustration into it. Returns the
+    visualizer (None without Meshcat). The planar and the spatial robot's diagrams are wired by it."""
     if planner_system is not None:
         builder.AddSystem(planner_system)
         builder.Connect(plant.get_state_output_port(), planner_system.GetInputPort("state"))
-        builder.Connect(planner_system.GetOutputPort("command"), controller.command_port)
+        builder.Connect(planner_system.GetOutputPort("command"), command_port)
     else:
-        builder.ExportInput(controller.command_port, "command")
-    visualizer = None
-    if meshcat is not None:
-        from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
+        builder.ExportInput(command_port, "command")
+    if meshcat is None:
+        return None
+    from pydrake.geometry import MeshcatVisualizer, MeshcatVisualizerParams, Role
 
-        visualizer = MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
-                                                    MeshcatVisualizerParams(role=Role.kIllustration))
-    return HopperDiagram(builder.Build(), plant, scene_graph, controller, parts, layout, params, terrain,
-                         planner_system, visualizer)
+    return MeshcatVisualizer.AddToBuilder(builder, scene_graph, meshcat,
+                                          MeshcatVisualizerParams(role=Role.kIllustration))
 
 
 def set_apex_state(hd: HopperDiagram, root_context, apex: ApexState, leg_angle: float = 0.0,

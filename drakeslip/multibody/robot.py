@@ -118,43 +118,55 @@ def check_robot_hopper(hopper, what: str) -> None:
                          f"({describe_params(hopper.params)}) from {what}: run it on another backend")
 
 
-def _set(root, path: str, value) -> None:
+def set_sdf_value(root, path: str, value) -> None:
+    """Write ``value`` (a number, or a string as it is) into the element at ``path`` under ``root``."""
     node = root.find(path)
     node.text = repr(float(value)) if not isinstance(value, str) else value
 
 
+def read_sdf_tree(package: str, name: str):
+    """The SDF file ``name`` of ``package`` as an element tree, its ``drake:`` tags read as ``drake__`` (the prefix
+    has no declared namespace); ``sdf_text`` writes it back."""
+    text = resources.files(package).joinpath(name).read_text()
+    return ET.fromstring(text.replace("drake:", "drake__"))
+
+
+def sdf_text(root) -> str:
+    """The SDF text of a tree ``read_sdf_tree`` read."""
+    return ET.tostring(root, encoding="unicode").replace("drake__", "drake:")
+
+
 def _model_links(params: RobotParams):
     """The packaged SDF's tree with ``params`` written into it, and its links by name."""
-    text = resources.files("drakeslip.multibody").joinpath(SDF_FILE).read_text()
-    root = ET.fromstring(text.replace("drake:", "drake__"))   # the drake: prefix has no declared namespace
+    root = read_sdf_tree("drakeslip.multibody", SDF_FILE)
     model = root.find("model")
     links = {link.get("name"): link for link in model.findall("link")}
     joints = {joint.get("name"): joint for joint in model.findall("joint")}
-    _set(links["body"], "inertial/mass", params.slip.mass)
-    _set(links["body"], "inertial/inertia/iyy", params.body_pitch_inertia)
-    _set(links["leg"], "inertial/mass", params.leg_mass)
-    _set(links["foot"], "inertial/mass", params.foot_mass)
-    _set(links["foot"], "visual[@name='foot_visual']/geometry/sphere/radius", params.foot_radius)
-    _set(links["foot"], "collision/geometry/sphere/radius", params.foot_radius)
+    set_sdf_value(links["body"], "inertial/mass", params.slip.mass)
+    set_sdf_value(links["body"], "inertial/inertia/iyy", params.body_pitch_inertia)
+    set_sdf_value(links["leg"], "inertial/mass", params.leg_mass)
+    set_sdf_value(links["foot"], "inertial/mass", params.foot_mass)
+    set_sdf_value(links["foot"], "visual[@name='foot_visual']/geometry/sphere/radius", params.foot_radius)
+    set_sdf_value(links["foot"], "collision/geometry/sphere/radius", params.foot_radius)
     props = links["foot"].find("collision/drake__proximity_properties")
-    _set(props, "drake__point_contact_stiffness", params.contact_stiffness)
-    _set(props, "drake__hunt_crossley_dissipation", params.contact_dissipation)
+    set_sdf_value(props, "drake__point_contact_stiffness", params.contact_stiffness)
+    set_sdf_value(props, "drake__hunt_crossley_dissipation", params.contact_dissipation)
     for tag in ("drake__mu_dynamic", "drake__mu_static"):
-        _set(props, tag, params.slip.friction)
-    _set(joints["hip"], "axis/limit/effort", params.hip_torque_limit)
-    _set(joints["hip"], "axis/limit/velocity", params.hip_speed_limit)
+        set_sdf_value(props, tag, params.slip.friction)
+    set_sdf_value(joints["hip"], "axis/limit/effort", params.hip_torque_limit)
+    set_sdf_value(joints["hip"], "axis/limit/velocity", params.hip_speed_limit)
     leg = joints["leg_spring"]
-    _set(leg, "axis/limit/lower", params.bottom_extension)
-    _set(leg, "axis/limit/upper", params.rest_extension)
-    _set(leg, "axis/limit/effort", params.leg_force_limit)
-    _set(leg, "axis/dynamics/damping", params.leg_damping)
+    set_sdf_value(leg, "axis/limit/lower", params.bottom_extension)
+    set_sdf_value(leg, "axis/limit/upper", params.rest_extension)
+    set_sdf_value(leg, "axis/limit/effort", params.leg_force_limit)
+    set_sdf_value(leg, "axis/dynamics/damping", params.leg_damping)
     return root, links
 
 
 def hopper_sdf(params: RobotParams) -> str:
     """The packaged SDF with ``params`` written into it."""
     root, _ = _model_links(params)
-    return ET.tostring(root, encoding="unicode").replace("drake__", "drake:")
+    return sdf_text(root)
 
 
 @dataclass(frozen=True)

@@ -272,3 +272,51 @@ def read_ascii_grid(text: str, where: str) -> HeightMap:
         raise ValueError(f"{where}: a height is not a number") from None
     h[h == nodata] = math.nan
     return HeightMap(h, check_number(cell, f"{where}: cellsize", bound=CELL), (x0, y0))
+
+
+def merge_cells(heights) -> list[tuple]:
+    """Rectangles (j0, j1, i0, i1, height) covering the solid (non-NaN) cells of ``heights`` (ny, nx) exactly,
+    each of cells of one height: the runs of equal cells along each row (x), then each run joined with the same
+    run (same columns, same height) in the rows after it."""
+    heights = np.asarray(heights, dtype=float)
+    open_runs, done = {}, []
+    for j, row in enumerate(heights):
+        runs, start = set(), 0
+        for i in range(1, row.size + 1):
+            if i == row.size or not (row[i] == row[start]):  # NaN != NaN: a hole ends a run and makes none
+                if not math.isnan(row[start]):
+                    runs.add((start, i, float(row[start])))
+                start = i
+        for key in set(open_runs) - runs:  # a run that does not go on closes
+            done.append((open_runs.pop(key), j, key[0], key[1], key[2]))
+        for key in runs - set(open_runs):
+            open_runs[key] = j
+    done += [(j0, heights.shape[0], i0, i1, h) for (i0, i1, h), j0 in open_runs.items()]
+    return sorted(done)
+
+
+class ScalarHeights:
+    """A height map's height (NaN over a hole) at a scalar (x, y), in plain Python, as ``HeightMap.height_at`` reads
+    it (clamped to the edges): read at every step of a robot's run, where numpy's call costs more than the lookup."""
+
+    def __init__(self, height_map: HeightMap):
+        self.rows = height_map.heights.tolist()
+        self.x0, self.y0 = height_map.origin
+        self.cell = height_map.cell
+        self.ny, self.nx = height_map.shape
+
+    def __call__(self, x: float, y: float) -> float:
+        i = min(max(int(math.floor((x - self.x0) / self.cell)), 0), self.nx - 1)
+        j = min(max(int(math.floor((y - self.y0) / self.cell)), 0), self.ny - 1)
+        return self.rows[j][i]
+
+    def highest_along(self, start, end) -> float:
+        """The highest solid cell under the segment from ``start`` to ``end`` ((x, y) each), sampled every half cell
+        (a hole counts as no ground; -inf under holes only)."""
+        steps = max(1, int(math.ceil(2.0 * math.hypot(end[0] - start[0], end[1] - start[1]) / self.cell)))
+        highest = -math.inf
+        for k in range(steps + 1):
+            h = self(start[0] + (end[0] - start[0]) * k / steps, start[1] + (end[1] - start[1]) * k / steps)
+            if h > highest:   # False for NaN
+                highest = h
+        return highest

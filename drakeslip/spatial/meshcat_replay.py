@@ -6,11 +6,11 @@
 it opens offline, no server) under the 2-D replay's header (``drakeslip.replay_scene.write_page``).
 
 The scene: the height map's cells within CROP_MARGIN of the run as boxes coloured by height as in
-``drakeslip.spatial.viz``'s figure (equal cells merged into rectangles, ``merge_cells``; holes left open over a
-dark floor), the body's path, the planned footholds (cyan diamonds) and the executed ones (orange balls, each
-shown from its touchdown on) in the 2-D replay's colours, the failure (a red X with its name, from its time on),
-and the hopper: the body a blue sphere, the leg a rod to the foot (to the pinned foot in stance, at rest length
-along the commanded (pitch, roll) when deployed in flight, short and straight down when retracted).
+``drakeslip.spatial.viz``'s figure (equal cells merged into rectangles, ``heightmap.merge_cells``; holes left open over
+a dark floor), the body's path, the planned footholds (cyan diamonds) and the executed ones (orange balls, each shown
+from its touchdown on) in the 2-D replay's colours, the failure (a red X with its name, from its time on), and the
+hopper: the body a blue sphere, the leg a rod to the foot (to the pinned foot in stance, at rest length along the
+commanded (pitch, roll) when deployed in flight, short and straight down when retracted).
 
 A perspective camera looks ahead from behind the hopper, to its left and above it. The world slides under it as
 the 2-D replay's does with ``follow``, by the body's x and y (not z: the hops are seen), so the body stays at one
@@ -29,7 +29,7 @@ from drakeslip.meshcat_replay import BODY_RGB, LEG_RGB, RETRACTED_FRACTION
 from drakeslip.replay_scene import EXECUTED_RGB, FAILURE_RGB, PATH_RGB, PLANNED_RGB, play, rgba, stroke_mesh, \
     swatch, text_segments, write_page
 from drakeslip.spatial.dynamics import leg_offset
-from drakeslip.spatial.heightmap import HeightMap
+from drakeslip.spatial.heightmap import HeightMap, merge_cells
 from drakeslip.spatial.simulation import SimulationResult3D
 from drakeslip.spatial.slip_hopper import HybridState3D
 from drakeslip.spatial.viz import HOLE_COLOR, crop, foothold_points, ground_colormap, height_norm
@@ -45,27 +45,6 @@ CAMERA, TARGET = (-2.6, -2.0, 2.4), (0.9, 0.2, 0.2)
 _MODE, _DEPLOYED, _PITCH, _ROLL = (HybridState3D._fields.index(f) for f in ("mode", "leg_deployed", "leg_pitch",
                                                                            "leg_roll"))
 _FOOT = [HybridState3D._fields.index(f) for f in ("foot_x", "foot_y", "foot_z")]
-
-
-def merge_cells(heights) -> list[tuple]:
-    """Rectangles (j0, j1, i0, i1, height) covering the solid (non-NaN) cells of ``heights`` (ny, nx) exactly,
-    each of cells of one height: the runs of equal cells along each row (x), then each run joined with the same
-    run (same columns, same height) in the rows after it."""
-    heights = np.asarray(heights, dtype=float)
-    open_runs, done = {}, []
-    for j, row in enumerate(heights):
-        runs, start = set(), 0
-        for i in range(1, row.size + 1):
-            if i == row.size or not (row[i] == row[start]):  # NaN != NaN: a hole ends a run and makes none
-                if not math.isnan(row[start]):
-                    runs.add((start, i, float(row[start])))
-                start = i
-        for key in set(open_runs) - runs:  # a run that does not go on closes
-            done.append((open_runs.pop(key), j, key[0], key[1], key[2]))
-        for key in runs - set(open_runs):
-            open_runs[key] = j
-    done += [(j0, heights.shape[0], i0, i1, h) for (i0, i1, h), j0 in open_runs.items()]
-    return sorted(done)
 
 
 def height_map_boxes(height_map: HeightMap, points, margin: float = CROP_MARGIN) -> list[tuple]:
