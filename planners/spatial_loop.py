@@ -76,13 +76,14 @@ class MapLoop:
     case's generator, the executed hopper and the errors drawn for the current plan's hops."""
 
     def __init__(self, planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig,
-                 checks_flying_on: bool = False):
+                 checks_flying_on: bool = False, plans_for: SlipParams | None = None):
         if config.backend not in MAP_LOOP_BACKENDS:
             raise ValueError(f"backend {config.backend!r} does not run height maps; choose one of {MAP_LOOP_BACKENDS}")
         self.planner, self.case, self.params, self.config = planner, case, params, config
         # a robot's loop flies on along the last plan only where the template's hop from the apex told to its next
         # foothold lands there (the robot is not where the template would be: its last plan may no longer fit)
         self.checks_flying_on = checks_flying_on
+        self.plans_for = plans_for or params   # the template the planner plans for (a robot's: see its loop)
         units = units_of(params)
         self.ahead, self.behind = WINDOW_AHEAD * units.length, WINDOW_BEHIND * units.length
         self.aside, self.radius = WINDOW_ASIDE * units.length, GOAL_RADIUS * units.length
@@ -150,7 +151,7 @@ class MapLoop:
     def hop_lands(self, apex, foothold, window: HeightMap) -> bool:
         """Whether the template's hop from ``apex`` aimed at ``foothold`` lands there (within 1 cm) on ``window``."""
         try:
-            hop = step3d(tuple(apex), leg_angles_for(tuple(apex), foothold, self.params), window, self.params)
+            hop = step3d(tuple(apex), leg_angles_for(tuple(apex), foothold, self.plans_for), window, self.plans_for)
         except ValueError:   # out of the leg's reach
             return False
         miss = math.hypot(hop.foothold[0] - foothold[0], hop.foothold[1] - foothold[1])
@@ -169,7 +170,7 @@ class MapLoop:
             window = perceived_map(self.noise, window, self.rng, self.config.map_filter)
         self.window = window
         try:
-            plan = self.planner.plan(tuple(float(v) for v in seen), window, goal, self.params)
+            plan = self.planner.plan(tuple(float(v) for v in seen), window, goal, self.plans_for)
             record = plan.summary()
         except ValueError as refusal:   # a noisy apex the planner cannot start from (below the ground it sees)
             if self.noise.silent:

@@ -14,7 +14,8 @@ place. ``run_map_case_on_robot`` runs one case as one Diagram (plant, planner sy
 after the hop that passes the goal, a failure of the robot (the monitor's names, ``drakeslip.spatial.multibody.gait``),
 no plan or the hop cap.
 
-The planners plan for the hopper's own SLIP (no template fitted to the spatial robot yet). Under a noise profile the
+The planners plan for the hopper's own SLIP with PLANNED_FRICTION_SHARE of the ground's friction (no template fitted
+to the spatial robot yet). Under a noise profile the
 plant is the robot of the case's drawn spring, mass and friction while the controller keeps the model's, and the
 planner is told the apex and sees the map with their errors (the map loop's draws); the controller aims from the
 state it measures.
@@ -43,6 +44,10 @@ from planners.spatial_loop import MapCase, MapLoop, map_case_result
 
 
 IN_PLACE_HOPS = 3   # hops in place in a row, at most, before "no plan" ends the run
+# The robot's planners plan for the hopper's SLIP with this share of the ground's friction: the robot's hip spends up
+# to FRICTION_SHARE of the friction its leg leaves on the body's attitude and its foot lands moving, so a hop the
+# template makes at the edge of the friction cone slides on the robot
+PLANNED_FRICTION_SHARE = 0.7
 
 
 @dataclass(frozen=True)
@@ -134,7 +139,8 @@ def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: Cl
     hopper ``params``, ``SpatialRobotParams.for_hopper``), the planner planning for ``params``. Returns the case's
     result as ``planners.spatial_loop.run_map_case`` writes it, with the robot's "what", "hops", "max_roll",
     "max_pitch", "simulated_s" and "wall_s"."""
-    loop = MapLoop(planner, case, params, config, checks_flying_on=True)
+    loop = MapLoop(planner, case, params, config, checks_flying_on=True,
+                   plans_for=params.with_friction(PLANNED_FRICTION_SHARE * params.friction))
     model = robot or config.robot or SpatialRobotParams.for_hopper(params)
     plant_robot = model.with_slip(loop.executed)   # under noise, the drawn spring, mass and friction
 
@@ -177,6 +183,7 @@ def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: Cl
     roll, pitch = log.max_attitude()
     result.update(what=log.failure.what if log.failure else monitor.outcome, hops=len(log.touchdowns),
                   max_roll=roll, max_pitch=pitch, simulated_s=context.get_time(), wall_s=wall)
+    result["planned_for"] = asdict(loop.plans_for)
     if not loop.noise.silent:
         result["executed_robot"] = asdict(plant_robot)
     return result
