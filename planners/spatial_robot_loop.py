@@ -31,10 +31,9 @@ from pydrake.systems.framework import EventStatus
 
 from drakeslip.params import SlipParams
 from drakeslip.simulation import advance
-from drakeslip.spatial.multibody.aiming import aim_direction
 from drakeslip.spatial.multibody.controller import SpatialCommand
 from drakeslip.spatial.multibody.diagram import build_spatial_diagram, set_apex_state
-from drakeslip.spatial.multibody.gait import LOSS_PRIOR, SpatialMonitor
+from drakeslip.spatial.multibody.gait import LOSS_PRIOR, SpatialMonitor, leg_toward
 from drakeslip.spatial.multibody.robot import SpatialLayout, SpatialRobotParams
 from drakeslip.units import units_of
 
@@ -159,9 +158,8 @@ def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: Cl
     first = sd.planner.start_at(planner_context, sd.plant.GetPositionsAndVelocities(
         sd.plant.GetMyContextFromRoot(context)))
     if first.footholds:
-        leg = aim_direction(apex[:3], (*apex[3:5], 0.0), np.add(first.footholds[0], (0.0, 0.0, model.foot_radius)),
-                            model.rest_extension, model.slip.gravity)[0]
-        set_apex_state(sd, context, apex[:3], apex[3:5], leg, LOSS_PRIOR * units_of(model.slip).speed ** 2)
+        set_apex_state(sd, context, apex[:3], apex[3:5], leg_toward(apex, first.footholds[0], model),
+                       LOSS_PRIOR * units_of(model.slip).speed ** 2)
     monitor = LoopMonitor(sd, context, sd.planner, sd.planner.loop(planner_context).done)
     simulator.set_monitor(monitor)
     if sd.visualizer is not None:

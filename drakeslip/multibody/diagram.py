@@ -32,12 +32,17 @@ class HopperDiagram:
     visualizer: object = None
 
 
+def add_robot_plant(builder, time_step: float):
+    """A robot's plant and scene graph in ``builder``: discrete at ``time_step``, compliant point contact solved by
+    SAP (the planar and the spatial robot's)."""
+    config = MultibodyPlantConfig(time_step=time_step, contact_model="point", discrete_contact_approximation="sap")
+    return AddMultibodyPlant(config, builder)
+
+
 def add_robot_and_terrain(builder, terrain: Terrain, params: RobotParams):
     """Add the plant (discrete at ``params.time_step``, compliant point contact solved by SAP) with the hopper
     and ``terrain``'s boxes to ``builder``; returns (plant, scene_graph, parts, layout)."""
-    config = MultibodyPlantConfig(time_step=params.time_step, contact_model="point",
-                                  discrete_contact_approximation="sap")
-    plant, scene_graph = AddMultibodyPlant(config, builder)
+    plant, scene_graph = add_robot_plant(builder, params.time_step)
     parts = add_hopper(plant, params)
     add_terrain(plant, terrain, params.slip.friction)
     plant.Finalize()

@@ -332,11 +332,7 @@ class SpatialHopperController(LeafSystem):
             # the ground it left (dragged forward, a foot near a face catches it and kicks the body round)
             kp, kd = 0.0, self.lift_damping
             d = r @ leg_direction(*hip)
-            ox, oy = leg * d[0], leg * d[1]
-            dt = p.time_step
-            now = hip_angles(r.T @ offset_direction(ox, oy, leg))
-            after = hip_angles(r.T @ offset_direction(ox - velocity[0] * dt, oy - velocity[1] * dt, leg))
-            rate = ((after[0] - now[0]) / dt, (after[1] - now[1]) / dt)
+            _, rate = self._moving_offset(r, leg * d[0], leg * d[1], -velocity[:2], leg)
         torques = (kp * (target[0] - hip[0]) + kd * (rate[0] - hip_rates[0]),
                    kp * (target[1] - hip[1]) + kd * (rate[1] - hip_rates[1]))
         goal = rest - self.retract if phase == Phase.ASCENT else rest + 0.01 * units_of(p.slip).length
@@ -366,10 +362,16 @@ class SpatialHopperController(LeafSystem):
         reach = self.params.rest_extension
         swing = -LANDING_SWING_SHARE * velocity[:2]
         lead = min(fall, LANDING_SWING_TIME * units_of(self.params.slip).time)
-        ox, oy = reach * wanted[0] - swing[0] * lead, reach * wanted[1] - swing[1] * lead
+        return self._moving_offset(r, reach * wanted[0] - swing[0] * lead, reach * wanted[1] - swing[1] * lead, swing,
+                                   reach)
+
+    def _moving_offset(self, r, ox: float, oy: float, rate, reach: float) -> tuple:
+        """(hip angles, their rates) of the leg whose foot, ``reach`` from the hip, lies (ox, oy) from it horizontally
+        and moves by ``rate`` (x, y) [m/s] relative to it: the rates over one control period, through the body's
+        attitude ``r``."""
         dt = self.params.time_step
         now = hip_angles(r.T @ offset_direction(ox, oy, reach))
-        after = hip_angles(r.T @ offset_direction(ox + swing[0] * dt, oy + swing[1] * dt, reach))
+        after = hip_angles(r.T @ offset_direction(ox + rate[0] * dt, oy + rate[1] * dt, reach))
         return now, ((after[0] - now[0]) / dt, (after[1] - now[1]) / dt)
 
     def angular_momentum(self, velocity, omega, r, hip, hip_rates, leg, leg_rate) -> np.ndarray:

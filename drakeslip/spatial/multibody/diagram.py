@@ -5,11 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
 from drakeslip.multibody.controller import Phase
-from drakeslip.multibody.diagram import command_and_view
+from drakeslip.multibody.diagram import add_robot_plant, command_and_view
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.multibody.aiming import hip_angles
 from drakeslip.spatial.multibody.controller import SpatialCommand, SpatialHopperController
@@ -46,9 +45,7 @@ def build_spatial_diagram(height_map: HeightMap, params: SpatialRobotParams | No
     (``set_command``). ``meshcat``: a ``pydrake.geometry.Meshcat`` to draw into."""
     params = params or SpatialRobotParams()
     builder = DiagramBuilder()
-    config = MultibodyPlantConfig(time_step=params.time_step, contact_model="point",
-                                  discrete_contact_approximation="sap")
-    plant, scene_graph = AddMultibodyPlant(config, builder)
+    plant, scene_graph = add_robot_plant(builder, params.time_step)
     parts = add_spatial_hopper(plant, params)
     add_height_map(plant, height_map, params.slip.friction)
     plant.Finalize()

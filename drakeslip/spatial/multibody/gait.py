@@ -19,6 +19,7 @@ from pydrake.systems.analysis import Simulator
 from pydrake.systems.framework import EventStatus
 
 from drakeslip.multibody.controller import Phase
+from drakeslip.multibody.execute import LOSS_PRIOR as PLANAR_LOSS_PRIOR
 from drakeslip.multibody.failures import PITCH_LIMIT, SLIP_DISTANCE, RobotFailure
 from drakeslip.simulation import advance
 from drakeslip.spatial.heightmap import HeightMap, ScalarHeights
@@ -29,9 +30,9 @@ from drakeslip.spatial.multibody.robot import SpatialRobotParams, leg_direction,
 from drakeslip.state import FailureMode
 from drakeslip.units import units_of
 
-# [J/kg] what a hop of the paper's hopper loses beyond the foot's liftoff (in a hopper's units): the energy bias the
-# controller starts from and keeps learning
-LOSS_PRIOR = 0.1
+# [J/kg] what a hop of the paper's hopper in place loses beyond the foot's liftoff (the planar robot's estimate, in a
+# hopper's units): the energy bias the controller starts from and keeps learning
+LOSS_PRIOR = PLANAR_LOSS_PRIOR[0]
 APEX_HEIGHT = 0.62   # [m] the gait's apex above flat ground, the paper's hopper's (in a hopper's lengths)
 CORNERS = np.array([(u, v, w) for u in (-1, 1) for v in (-1, 1) for w in (-1, 1)], dtype=float)
 
@@ -185,9 +186,17 @@ def execute(apex, height_map: HeightMap, footholds, params: SpatialRobotParams |
     command = SpatialCommand(footholds, apex_height=apex[2] if apex_height is None else float(apex_height),
                              velocity=apex[3:5])
     sd = _map_diagram(height_map, params)
-    first = aim_direction(apex[:3], (*apex[3:5], 0.0), np.add(footholds[0], (0, 0, params.foot_radius)),
-                          params.rest_extension, params.slip.gravity)[0] if footholds else (0.0, 0.0, -1.0)
-    return _run(sd, apex, first, lambda k: command, len(footholds) + 1, {})
+    return _run(sd, apex, leg_toward(apex, footholds[0] if footholds else None, params), lambda k: command,
+                len(footholds) + 1, {})
+
+
+def leg_toward(apex, foothold, params: SpatialRobotParams) -> tuple:
+    """The world leg direction at the start ``apex`` (x, y, z, vx, vy) that lands the foot on ``foothold`` (x, y, z
+    of the contact; None: straight down)."""
+    if foothold is None:
+        return 0.0, 0.0, -1.0
+    return tuple(aim_direction(apex[:3], (*apex[3:5], 0.0), np.add(foothold, (0.0, 0.0, params.foot_radius)),
+                               params.rest_extension, params.slip.gravity)[0])
 
 
 def _run(sd, apex, leg, commands, hops: int, pushes: dict) -> GaitLog:
