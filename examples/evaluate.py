@@ -26,8 +26,8 @@ spatial SLIP, or with --backend fast on the compiled spatial step map), through 
 is printed, with or without a noise profile (its 3D form, drakeslip/spatial/noise.py) and the robot's map filter.
 --backend multibody runs each map case on the spatial robot (drakeslip/spatial/multibody, any hopper's: one Diagram
 per case with the map loop as a planner system, planners/spatial_robot_loop.py), the planners planning for the
-hopper's own SLIP: there is no template fitted to the spatial robot yet, so --template and --no-pump are refused on
-maps, as are planners that plan on profiles only:
+hopper's own SLIP, or with --template for a SLIP fitted to the spatial robot (examples/fit_template.py --robot
+spatial); --no-pump is refused on maps, as are planners that plan on profiles only:
 
     python3 examples/evaluate.py --suite out/maps/gaps-7000.json --planners step --backend fast --jobs 2 \
         --out out/gaps.json
@@ -88,7 +88,9 @@ def arguments() -> cli.ArgumentParser:
     ap.add_argument("--template", type=cli.input_file, default=None,
                     help="multibody backend: the template hopper file the planners plan for (default: the one fitted "
                          "to the robot, drakeslip/multibody/template.json; drakeslip/multibody/template_corrected.json "
-                         "adds the learned correction of its apex-to-apex map, examples/fit_correction.py)")
+                         "adds the learned correction of its apex-to-apex map, examples/fit_correction.py); on a map "
+                         "suite, a spatial template fit (examples/fit_template.py --robot spatial; default: the "
+                         "hopper's own SLIP)")
     ap.add_argument("--no-pump", action="store_true",
                     help="ablation, multibody backend: the robot does not raise its apex with its leg actuator "
                          "where a plan skims the ground (drakeslip.multibody.pump.EnergyPump)")
@@ -135,7 +137,7 @@ def loop_configs(ap: cli.ArgumentParser, args, labels: list[str], maps: bool) ->
         except (OSError, ValueError) as error:
             ap.error(f"--template: {error}")
         loop_options["pump_energy"] = not args.no_pump
-    elif args.template is not None:
+    elif args.template is not None and args.backend != "multibody":
         ap.error(f"--template needs --backend multibody, got --backend {args.backend}")
     return {label: ClosedLoopConfig(**{**loop_settings(label), **loop_options}, backend=args.backend,
                                     refine=not args.mlp_only, noise=args.noise, seed=args.seed)
@@ -152,11 +154,9 @@ def on_maps(ap: cli.ArgumentParser, args) -> bool:
         maps = is_map_suite(read_json(args.suite, "suite file"))
     except (OSError, ValueError) as error:
         ap.error(str(error))
-    refused = [flag for flag, used in (("--template", args.template is not None), ("--no-pump", args.no_pump))
-               if used]
-    if maps and refused:
-        ap.error(f"{', '.join(refused)}: not applied on height maps ({args.suite} is a map suite: the spatial robot "
-                 "has no fitted template and no energy pump)")
+    if maps and args.no_pump:
+        ap.error(f"--no-pump: not applied on height maps ({args.suite} is a map suite: the spatial robot has no "
+                 "energy pump)")
     return maps
 
 
@@ -178,6 +178,7 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
         hopper = hopper_for_suite(suite, args.hopper)
         if maps:
             check_map_run(configs)
+            template = map_template(ap, args, hopper)
         if args.backend == "multibody" and not maps:
             from drakeslip.multibody.robot import check_robot_hopper
 
@@ -194,8 +195,21 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
         from drakeslip.spatial.multibody.robot import SpatialRobotParams
 
         robot = SpatialRobotParams.for_hopper(hopper.params.with_friction(suite.friction))
-        configs = {label: replace(config, robot=robot) for label, config in configs.items()}
+        configs = {label: replace(config, robot=robot, template=template) for label, config in configs.items()}
     return suite, specs, configs
+
+
+def map_template(ap: cli.ArgumentParser, args, hopper):
+    """The SLIP the planners plan for on the spatial robot: --template's fit applied to ``hopper``'s, None (the
+    hopper's own) without one; one line and exit status 2 for a file that is not a fit."""
+    if args.template is None:
+        return None
+    from drakeslip.spatial.multibody.fit import fitted_template
+
+    try:
+        return fitted_template(hopper.params, args.template)
+    except ValueError as error:
+        ap.error(f"--template: {error}")
 
 
 @cli_physics.reports_crashes

@@ -21,13 +21,15 @@ is the paper's setting on a perfect robot.
 Writes a figure of the terrain, the body path, the leg at every touchdown and liftoff, the planned and the executed
 footholds; --html also writes a Meshcat replay of the run (self-contained HTML, the camera following the hopper: the
 executed footholds against the planned ones, the plans' predicted apexes, the failure marked and named). With
---backend multibody both show the robot (drakeslip/multibody/replay.py).
+--backend multibody both show the robot (drakeslip/multibody/replay.py; on a height map the spatial robot,
+drakeslip/spatial/multibody/replay.py).
 
-On a height map (--terrain a height-map family, drawn from --seed at --difficulty, or an .npz or .asc height-map
-file: drakeslip/spatial/heightmap.py) the spatial hopper hops toward the point --goal X,Y on Drake (or on the fast
-step map, --backend fast) in the map loop (planners/spatial_loop.py, verification/map_run.py): on a perfect robot,
-the `step` planner by default. The figure is the map from above and the profile along the path, with the planned
-and the executed footholds and the goal; --html replays the run in 3D.
+On a height map (--terrain a height-map family, drawn from --seed at --difficulty, or an .npz or .asc height-map file:
+drakeslip/spatial/heightmap.py) the spatial hopper hops toward the point --goal X,Y on Drake (or on the fast step map,
+--backend fast; or the spatial robot, --backend multibody) in the map loop (planners/spatial_loop.py,
+verification/map_run.py): on a perfect robot (--noise in its 3D form), the `step` planner by default. The figure is the
+map from above and the profile along the path, with the planned and the executed footholds and the goal; --html replays
+the run in 3D.
 
 Exit status: 0 the hopper reached the goal, 1 it did not (no plan, or a failed hop), 2 a usage or input error,
 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
@@ -69,11 +71,11 @@ def arguments() -> cli.ArgumentParser:
                                                     f"{PROFILE_PLANNER}; {map_run.MAP_PLANNER} on a height map)")
     ap.add_argument("--noise", type=cli_physics.noise_profile, default=None,
                     help=f"noise profile of the robot: {', '.join(PROFILES)}, or NAME*K (drakeslip/noise.py) "
-                         f"(default: {PROFILE_NOISE}; none on a height map, where noise is not applied yet)")
+                         f"(default: {PROFILE_NOISE}; none on a height map, where it applies in its 3D form)")
     ap.add_argument("--noise-seed", type=cli.non_negative_int, default=0, help="seed of the noise draws")
     ap.add_argument("--executed", type=cli.positive_int, default=None,
                     help="footholds of each plan executed before replanning (default: the planner preset's "
-                         f"period, else {EXECUTED_PER_PLAN}, the paper's)")
+                         f"period, else {EXECUTED_PER_PLAN}, the paper's; 1 for the spatial robot on a height map)")
     ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
                     help="initial apex x [m] (default: 0, or one leg length onto a terrain file's first solid ground; "
                          "on a height map -1, made the hopper's)")

@@ -80,8 +80,8 @@ class MapLoop:
         if config.backend not in MAP_LOOP_BACKENDS:
             raise ValueError(f"backend {config.backend!r} does not run height maps; choose one of {MAP_LOOP_BACKENDS}")
         self.planner, self.case, self.params, self.config = planner, case, params, config
-        # a robot's loop flies on along the last plan only where the template's hop from the apex told to its next
-        # foothold lands there (the robot is not where the template would be: its last plan may no longer fit)
+        # a robot's loop flies a queued foothold, or on along the last plan, only where the template's hop from the
+        # apex told lands there (the robot is not where the template would be: its last plan may no longer fit)
         self.checks_flying_on = checks_flying_on
         self.plans_for = plans_for or params   # the template the planner plans for (a robot's: see its loop)
         units = units_of(params)
@@ -123,6 +123,9 @@ class MapLoop:
         if self.hops >= self.config.max_hops:
             self.failure = "HOP_CAP"
             return None
+        if self.queue and self.checks_flying_on and not self.hop_lands(self.told(apex, self.flown), self.queue[0],
+                                                                       self.window):
+            self.queue = []   # the robot is not where the plan meant it to be: the next foothold no longer fits
         if not self.queue and not self.replan(apex):
             return None
         target = self.queue.pop(0)

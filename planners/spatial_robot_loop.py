@@ -7,15 +7,15 @@ on along the last plan, then safe hops, as on the template's backends) and outpu
 window the loop planned on; the robot's controller (``drakeslip.spatial.multibody.controller``) aims its foot at it from
 the state it measures, keeping the apex's energy as the template does, and lifts the foot clear of that map before
 swinging it forward. Two things differ from the template's loop, because the robot is not where the template would be:
-it flies on along its last plan only where the template's hop from the apex it reached still lands on that plan's next
-foothold, and where the loop has no plan and no hop of one it hops in place (Raibert's placement to a standstill), up to
-IN_PLACE_HOPS in a row, and asks again. The loop is the system's state: a value replaced at each apex, never changed in
-place. ``run_map_case_on_robot`` runs one case as one Diagram (plant, planner system, controller), ending at the apex
-after the hop that passes the goal, a failure of the robot (the monitor's names, ``drakeslip.spatial.multibody.gait``),
-no plan or the hop cap.
+it flies a plan's next foothold (or on along its last plan) only where the template's hop from the apex it reached still
+lands there, else it plans again; and where the loop has no plan and no hop of one it hops in place (Raibert's placement
+to a standstill), up to IN_PLACE_HOPS in a row, and asks again. The loop is the system's state: a value replaced at each
+apex, never changed in place. ``run_map_case_on_robot`` runs one case as one Diagram (plant, planner system,
+controller), ending at the apex after the hop that passes the goal, a failure of the robot (the monitor's names,
+``drakeslip.spatial.multibody.gait``), no plan or the hop cap.
 
-The planners plan for the hopper's own SLIP with PLANNED_FRICTION_SHARE of the ground's friction (no template fitted
-to the spatial robot yet). Under a noise profile the
+The planners plan for the hopper's own SLIP (or ``config.template``, e.g. the SLIP fitted to the robot,
+``drakeslip.spatial.multibody.fit``) with PLANNED_FRICTION_SHARE of the ground's friction. Under a noise profile the
 plant is the robot of the case's drawn spring, mass and friction while the controller keeps the model's, and the
 planner is told the apex and sees the map with their errors (the map loop's draws); the controller aims from the
 state it measures.
@@ -109,8 +109,8 @@ class LoopMonitor(SpatialMonitor):
     """``SpatialMonitor`` that ends the run at the first apex after the loop's last hop (the one passing the goal,
     outcome "goal") and where the loop ends without one (its failure: NO_PLAN, HOP_CAP, UNREACHABLE)."""
 
-    def __init__(self, sd, root_context, planner: MapPlannerSystem, done_at_start: bool):
-        super().__init__(sd, root_context, pause_at_apexes=False)
+    def __init__(self, sd, root_context, planner: MapPlannerSystem, done_at_start: bool, trajectory: bool = False):
+        super().__init__(sd, root_context, pause_at_apexes=False, trajectory=trajectory)
         self.planner, self.outcome = planner, "running"
         self.planner_context = planner.GetMyContextFromRoot(root_context)
         self.done_at = 0 if done_at_start else None   # apexes logged when the loop commanded its last hop
@@ -133,13 +133,15 @@ class LoopMonitor(SpatialMonitor):
 
 
 def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig,
-                          robot: SpatialRobotParams | None = None, meshcat=None) -> dict:
+                          robot: SpatialRobotParams | None = None, meshcat=None, trajectory: bool = False) -> dict:
     """One case on a height map on the spatial robot ``robot`` (default: ``config.robot``, else the robot of the
     hopper ``params``, ``SpatialRobotParams.for_hopper``), the planner planning for ``params``. Returns the case's
     result as ``planners.spatial_loop.run_map_case`` writes it, with the robot's "what", "hops", "max_roll",
-    "max_pitch", "simulated_s" and "wall_s"."""
+    "max_pitch", "simulated_s" and "wall_s"; with ``trajectory``, also "log" (the run's ``GaitLog`` with its
+    trajectory) and "robot" (the ``SpatialRobotParams`` that ran)."""
+    template = config.template or params   # the SLIP the planners plan for, with the case's friction share
     loop = MapLoop(planner, case, params, config, checks_flying_on=True,
-                   plans_for=params.with_friction(PLANNED_FRICTION_SHARE * params.friction))
+                   plans_for=template.with_friction(PLANNED_FRICTION_SHARE * params.friction))
     model = robot or config.robot or SpatialRobotParams.for_hopper(params)
     plant_robot = model.with_slip(loop.executed)   # under noise, the drawn spring, mass and friction
 
@@ -160,7 +162,7 @@ def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: Cl
     if first.footholds:
         set_apex_state(sd, context, apex[:3], apex[3:5], leg_toward(apex, first.footholds[0], model),
                        LOSS_PRIOR * units_of(model.slip).speed ** 2)
-    monitor = LoopMonitor(sd, context, sd.planner, sd.planner.loop(planner_context).done)
+    monitor = LoopMonitor(sd, context, sd.planner, sd.planner.loop(planner_context).done, trajectory)
     simulator.set_monitor(monitor)
     if sd.visualizer is not None:
         sd.visualizer.StartRecording()
@@ -184,4 +186,6 @@ def run_map_case_on_robot(planner, case: MapCase, params: SlipParams, config: Cl
     result["planned_for"] = asdict(loop.plans_for)
     if not loop.noise.silent:
         result["executed_robot"] = asdict(plant_robot)
+    if trajectory:
+        result.update(log=log, robot=plant_robot)
     return result

@@ -173,7 +173,8 @@ def test_evaluate_runs_a_users_map_file(run_script, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--backend", "multibody", "--no-pump"], "--no-pump: not applied on height maps"),
-    (["--template", "{suite}"], "--template: not applied on height maps"),
+    (["--template", "{suite}"], "--template needs --backend multibody"),
+    (["--backend", "multibody", "--template", "{suite}"], "s.json is not a spatial template fit"),
     (["--backend", "fast", "--planners", "angle"], "planners angle plan on profiles only, not on height maps"),
     (["--backend", "fast", "--planners", "step@drake", "--options", '{{"step@drake": {{"step_map": "drake"}}}}'],
      "step@drake: the 'step' planner plans on a height map without step_map='drake'"),

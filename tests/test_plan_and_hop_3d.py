@@ -1,5 +1,6 @@
 """examples/plan_and_hop.py on height maps (verification/map_run.py): a map family's draw and a user's .npz map
-planned for and hopped over end to end, with the figure and the replay; every input the map loop cannot run
+planned for and hopped over end to end, with the figure and the replay, by the spatial SLIP and by the spatial robot;
+every input the map loop cannot run
 refused in one line, exit status 2, before any work; --help names the height-map families."""
 import base64
 import re
@@ -56,6 +57,21 @@ def test_a_users_npz_map_is_hopped_over_its_hole(run_script, tmp_path, user_map)
     assert code == 0 and "(fast, replanning every 3 hops)" in out, err
 
 
+def test_the_spatial_robot_hops_a_users_map_with_its_figure_and_replay(run_script, tmp_path, user_map):
+    png, html = tmp_path / "robot.png", tmp_path / "robot.html"
+    code, out, err = run_script("plan_and_hop", "--terrain", user_map, "--goal", "4,0", "--backend", "multibody",
+                                "--out", png, "--html", html)
+    assert code == 0, err
+    assert "(multibody, replanning every 1 hops)" in out and "reached the goal" in out
+    robot = next(line for line in out.splitlines() if line.startswith("the spatial robot:"))
+    assert "touchdowns" in robot and "largest roll" in robot and "s simulated in" in robot
+    assert png.stat().st_size > 10_000 and f"replay: {html}" in out
+    text = html.read_text()
+    assert "on the spatial robot" in text and "hip gimbal" in text and "no failure" in text
+    animation = [c for c in embedded_commands(text) if b"set_animation" in c]
+    assert len(animation) == 1 and b"/drakeslip/world/robot/body" in animation[0]
+
+
 @pytest.mark.parametrize("args, named", [
     (["--terrain", "warp"], "'warp' is neither a terrain family"),
     (["--terrain", "gaps", "--difficulty", "2"], "--difficulty: must be a finite number >= 0.0 and <= 1.0, got '2'"),
@@ -68,7 +84,6 @@ def test_a_users_npz_map_is_hopped_over_its_hole(run_script, tmp_path, user_map)
     (["--terrain", "gaps", "--planner", "trajopt"], "--planner trajopt:"),
     (["--terrain", "{map}", "--start-x", "1.6"], "the start (x, y) = (1.6, 0) is over a hole of the map"),
     (["--terrain", "{map}", "--start-x", "20"], "the start (x, y) = (20, 0) is not over the map"),
-    (["--terrain", "gaps", "--backend", "multibody"], "--backend multibody"),
     (["--terrain", "gaps", "--backend", "fast", "--html", "{tmp}/r.html"], "--html: the fast backend"),
     (["--terrain", "{map}", "--difficulty", "0.5"], "--difficulty draws a height-map family"),
     (["--terrain", "step", "--goal", "3,1"], "--goal: a point X,Y is a height map's goal; on a terrain profile the "

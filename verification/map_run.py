@@ -5,9 +5,10 @@ The script's flags keep their meaning where the spatial loop has one: --start-x,
 (at y = 0, heading +x; left out: x = -1 m, 0.9 m above the ground, 2 m/s, each made the hopper's as a map suite makes
 it, ``planners.formats.map_suite``), --goal is a point X,Y (a single number is (X, 0); left out: the map suites' goal
 (10, 0) made the hopper's, at most one leg length before a map file's end), --seed and --difficulty draw a family's map.
-What the script does not do on a map is refused in one line before any work: the multibody robot (evaluate.py runs map
-suites on the spatial robot), a planner that plans on profiles only or with options the map search does not take (the
-default here is ``step``). A noise profile applies in its 3D form (the default is none here).
+With --backend multibody the spatial robot (``drakeslip.spatial.multibody``) hops in the map loop as one Diagram
+(``planners.spatial_robot_loop``), the figure and the replay showing the robot's own run. What the script does not do
+on a map is refused in one line before any work: a planner that plans on profiles only or with options the map search
+does not take (the default here is ``step``). A noise profile applies in its 3D form (the default is none here).
 
 Everything that loads pydrake, numba or matplotlib is imported inside the functions, so the script's --help stays
 fast.
@@ -72,9 +73,6 @@ def goal_argument(text: str) -> tuple:
 
 def refuse(ap, args) -> None:
     """One line and exit status 2 for a flag the map loop does not run (module doc)."""
-    if args.backend == "multibody":
-        ap.error("--backend multibody: this script draws the planar robot only; run the spatial robot on maps with "
-                 "evaluate.py --backend multibody, or use drake or fast here")
     if args.html and args.backend == "fast":
         ap.error("--html: the fast backend logs no trajectory to replay; use --backend drake")
     if args.difficulty is not None and args.terrain.path is not None:
@@ -139,8 +137,12 @@ def checked_map_inputs(ap, args) -> tuple:
         planner.plan(apex, height_map, apex[:2], params)
     except ValueError as error:
         ap.error(f"--planner {args.planner}: {error}")
-    executed = args.executed or loop_settings(args.planner).get("executed_per_plan", EXECUTED_PER_PLAN)
-    config = ClosedLoopConfig(executed_per_plan=executed, backend=args.backend)
+    # the spatial robot replans at every apex: it is not where the template's hops would have taken it
+    robot_period = 1 if args.backend == "multibody" else None
+    executed = args.executed or robot_period or loop_settings(args.planner).get("executed_per_plan",
+                                                                                 EXECUTED_PER_PLAN)
+    config = ClosedLoopConfig(executed_per_plan=executed, backend=args.backend, seed=args.noise_seed,
+                              **({} if args.noise is None else {"noise": args.noise}))
     return hopper, MapCase("demo", height_map, apex, goal), params, planner, config
 
 
@@ -151,6 +153,8 @@ def hop_on_map(ap, args, argv) -> int:
     args.planner = args.planner or MAP_PLANNER
     hopper, case, params, planner, config = checked_map_inputs(ap, args)
     cli.announce(argv)
+    if config.backend == "multibody":
+        return hop_robot_on_map(case, params, planner, config, hopper, args)
     result, sim = run_map_case(planner, case, params, config)
     report(result, hopper, config, args)
     write_figure(case, result, sim, args)
@@ -159,6 +163,29 @@ def hop_on_map(ap, args, argv) -> int:
 
         write_replay3d(sim, args.html, planned_footholds=commanded(result),
                        title=f"plan_and_hop.py: {args.planner} on {where(args)}, {outcome(result)}")
+        print(f"replay: {args.html}")
+    return cli.OK if result["success"] else cli.FAILED
+
+
+# many parameters: the checked inputs of ``checked_map_inputs`` and the script's arguments
+def hop_robot_on_map(case, params, planner, config, hopper, args) -> int:
+    """The spatial robot in the map loop: print the plans and the outcome, draw the run, write the replay."""
+    from drakeslip.spatial.multibody.replay import plot_spatial_robot_run, write_spatial_robot_replay
+    from planners.spatial_robot_loop import run_map_case_on_robot
+
+    result = run_map_case_on_robot(planner, case, params, config, trajectory=True)
+    report(result, hopper, config, args)
+    log, robot = result["log"], result["robot"]
+    roll, pitch = log.max_attitude()
+    print(f"the spatial robot: {len(log.touchdowns)} touchdowns, largest roll {roll:.2f} rad, pitch {pitch:.2f} rad, "
+          f"{result['simulated_s']:.1f} s simulated in {result['wall_s']:.1f} s")
+    title = f"{args.planner} planner on the spatial robot, {where(args)}: {outcome(result)}"
+    figure = plot_spatial_robot_run(log, case.terrain, commanded(result), title, robot, goal=case.goal)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    figure.savefig(args.out, dpi=110)
+    print(f"wrote {args.out}")
+    if args.html:
+        write_spatial_robot_replay(log, case.terrain, args.html, commanded(result), f"plan_and_hop.py: {title}", robot)
         print(f"replay: {args.html}")
     return cli.OK if result["success"] else cli.FAILED
 

@@ -1,5 +1,6 @@
 """The robot's hops as the plans meant them, from closed-loop runs: what the template and its learned correction are
-fitted to (``examples/fit_correction.py``).
+fitted to (``examples/fit_correction.py``; on height maps, the spatial robot's, ``examples/fit_template.py --robot
+spatial``).
 
 A hop counts when the robot flew it aiming at a foothold of a plan, with the energy the plan keeps: hops by Raibert's
 placement (no plan), and hops whose stance pumped energy beyond the template's (``EnergyPump``), are the robot doing
@@ -54,3 +55,19 @@ def hop_from_record(record: dict) -> Hop:
     previous = record["previous"]
     return Hop(tuple(record["apex"]), float(record["foothold"]), float(record["height"]), tuple(record["next_apex"]),
                None if previous is None else hop_from_record(previous))
+
+
+def map_robot_hops(label: str, case, params: SlipParams) -> list[dict]:
+    """The hops (``drakeslip.spatial.multibody.fit.SpatialHop`` as dicts) of the map ``case`` run on the spatial robot
+    of the hopper ``params`` without noise, ``label`` replanning at every apex: each from an apex to the foothold
+    commanded there, and the apex it reached."""
+    from dataclasses import asdict
+
+    from drakeslip.spatial.multibody.fit import hops_from_plans
+    from planners.registry import make
+    from planners.replanning import ClosedLoopConfig
+    from planners.spatial_robot_loop import run_map_case_on_robot
+
+    result = run_map_case_on_robot(make(label), case, params, ClosedLoopConfig(backend="multibody",
+                                                                               executed_per_plan=1))
+    return [asdict(h) for h in hops_from_plans(result["plans"])]

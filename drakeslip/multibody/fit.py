@@ -20,6 +20,7 @@ from drakeslip.multibody.controller import HeldLeg, touchdown_angle
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
+from drakeslip.units import units_of
 
 FIT_NAME = "multibody"   # the fitted template's hopper name
 TEMPLATE_FILE = Path(__file__).resolve().parent / "template.json"   # where examples/fit_template.py writes it
@@ -96,21 +97,25 @@ def by_speed_change(hops: list[Hop], err: np.ndarray, edges=SPEED_CHANGE_EDGES) 
     return bands
 
 
-def fit(hops: list[Hop], start: SlipParams) -> SlipParams:
-    """The leg length and stiffness (from ``start``) minimizing the summed squared x and z errors over ``hops``
-    (a failed template hop costs as much as a 0.5 m error)."""
+def fit(hops: list, start: SlipParams, position_errors=None) -> SlipParams:
+    """The leg length and stiffness (from ``start``) minimizing the summed squared position errors over ``hops``
+    (``position_errors(hops, params)``: (n, k) errors, NaN where the template fails; default the x and z of
+    ``errors``; a failed template hop costs as much as a 0.5 m error)."""
     from scipy.optimize import minimize
+
+    position_errors = position_errors or (lambda h, p: errors(h, p)[:, :2])
+    length = units_of(start).length   # the paper's hopper's lengths below, in ``start``'s
 
     def cost(v):
         leg, log_k = v
-        if not start.min_leg_length + 0.05 < leg < 1.5 * start.leg_length:
+        if not start.min_leg_length + 0.05 * length < leg < 1.5 * start.leg_length:
             return 1e6
         p = replace(start, leg_length=float(leg), stiffness=float(math.exp(log_k)))
-        err = errors(hops, p)[:, :2]
-        return float(np.sum(np.where(np.isfinite(err), err, 0.5) ** 2))
+        err = position_errors(hops, p)
+        return float(np.sum(np.where(np.isfinite(err), err, 0.5 * length) ** 2))
 
     best = minimize(cost, [start.leg_length, math.log(start.stiffness)], method="Nelder-Mead",
-                    options={"xatol": 1e-4, "fatol": 1e-6, "maxiter": 200})
+                    options={"xatol": 1e-4 * length, "fatol": 1e-6, "maxiter": 200})
     leg, log_k = best.x
     return replace(start, leg_length=float(leg), stiffness=float(math.exp(log_k)))
 

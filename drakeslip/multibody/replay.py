@@ -23,26 +23,28 @@ HEADROOM = 0.26      # [m] kept above the body's path: the body box's corners re
 PART_NAMES = {"body_visual": "body", "leg_visual": "upper leg", "shin_visual": "lower leg", "foot_visual": "foot"}
 
 
-class RobotModel:
-    """The robot alone (no terrain) in a plant and scene graph: ``parts`` lists (link, geometry name, shape, pose
-    in the link, rgba) of its illustration geometry, and ``poses`` gives its links' poses in the world for a
-    position vector of the plant it ran in (as ``HopLog.positions`` holds them: the terrain adds none)."""
+class RobotGeometry:
+    """A robot alone (no terrain) in a plant and scene graph, parsed by ``add(plant, robot)`` (its parts: ``model``
+    and ``layout(plant)``): ``parts`` lists (link, geometry name, shape, pose in the link, rgba) of the illustration
+    geometry of its ``links``, as its SDF gives them, and ``poses`` gives the links' poses in the world for a position
+    vector of the plant it ran in (as a log's ``positions`` holds them: the terrain adds none). ``PART_NAMES`` names
+    the parts in a legend."""
 
-    def __init__(self, robot: RobotParams | None = None):
+    PART_NAMES: dict = {}
+
+    def __init__(self, robot, add, links: tuple):
         from pydrake.geometry import Role
         from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
         from pydrake.systems.framework import DiagramBuilder
 
-        from drakeslip.multibody.robot import add_hopper
-
-        self.robot = robot or RobotParams()
+        self.robot = robot
         self._builder = DiagramBuilder()   # owns the plant and the scene graph
-        plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=self.robot.time_step), self._builder)
-        hopper = add_hopper(plant, self.robot)
+        plant, scene_graph = AddMultibodyPlant(MultibodyPlantConfig(time_step=robot.time_step), self._builder)
+        hopper = add(plant, robot)
         plant.Finalize()
         self.plant, self.context = plant, plant.CreateDefaultContext()
         self.layout = hopper.layout(plant)
-        self.links = {name: plant.GetBodyByName(name, hopper.model) for name in ("body", "leg", "foot")}
+        self.links = {name: plant.GetBodyByName(name, hopper.model) for name in links}
         inspector = scene_graph.model_inspector()
         self.parts = []
         for name, link in self.links.items():
@@ -51,31 +53,42 @@ class RobotModel:
                 self.parts.append((name, inspector.GetName(geometry).split("::")[-1], inspector.GetShape(geometry),
                                    inspector.GetPoseInFrame(geometry), colour))
 
-    def positions(self, log: HopLog) -> np.ndarray:
+    def positions(self, log) -> np.ndarray:
         """The logged positions as an (N, nq) array, checked against this plant."""
         positions = np.asarray(log.positions, dtype=float)
         if positions.ndim != 2 or positions.shape[1] != self.plant.num_positions():
             raise ValueError(f"the log's positions ({positions.shape}) are not this robot's "
-                             f"({self.plant.num_positions()} a step)")
+                             f"({self.plant.num_positions()} a step): run it with its trajectory")
         return positions
-
-    def body_path(self, positions: np.ndarray) -> np.ndarray:
-        """(N, 2) x, z of the body (the hip) at each row of ``positions``."""
-        return positions[:, [self.layout.q[0], self.layout.q[1]]]
 
     def poses(self, q) -> dict:
         """{link name: RigidTransform in the world} at the plant positions ``q``."""
         self.plant.SetPositions(self.context, q)
         return {name: self.plant.EvalBodyPoseInWorld(self.context, link) for name, link in self.links.items()}
 
+    def legend_items(self) -> list:
+        return [(tuple(colour.rgba[:3]), self.PART_NAMES.get(name, name)) for _, name, _, _, colour in self.parts]
+
+
+class RobotModel(RobotGeometry):
+    """The planar robot's ``RobotGeometry``: body, leg and foot, the body's path in x and z."""
+
+    PART_NAMES = PART_NAMES
+
+    def __init__(self, robot: RobotParams | None = None):
+        from drakeslip.multibody.robot import add_hopper
+
+        super().__init__(robot or RobotParams(), add_hopper, ("body", "leg", "foot"))
+
+    def body_path(self, positions: np.ndarray) -> np.ndarray:
+        """(N, 2) x, z of the body (the hip) at each row of ``positions``."""
+        return positions[:, [self.layout.q[0], self.layout.q[1]]]
+
     def hip_and_foot(self, q):
         """((x, z) of the hip, (x, z) of the foot's lowest point) at the plant positions ``q``."""
         poses = self.poses(q)
         hip, foot = poses["body"].translation(), poses["foot"].translation()
         return (hip[0], hip[2]), (foot[0], foot[2] - self.robot.foot_radius)
-
-    def legend_items(self) -> list:
-        return [(tuple(colour.rgba[:3]), PART_NAMES.get(name, name)) for _, name, _, _, colour in self.parts]
 
 
 def _scene(log: HopLog, model: RobotModel, terrain: Terrain, planned_footholds, predicted_apexes) -> Scene:

@@ -122,33 +122,34 @@ def draw_terrain(meshcat, height_map: HeightMap, points, world: str) -> None:
     meshcat.SetTransform(f"{world}/terrain/floor", RigidTransform([(x_lo + x_hi) / 2, (y_lo + y_hi) / 2, floor - 0.01]))
 
 
-def draw_markers(meshcat, result: SimulationResult3D, planned: np.ndarray, world: str) -> dict:
-    """The path, the planned and executed footholds and the failure. Returns {path: time} of the markers shown
-    from a time on (the executed footholds, the failure)."""
+def draw_markers(meshcat, path, touchdowns, failure, planned: np.ndarray, world: str) -> dict:
+    """The body's ``path`` ((N, 3)), the ``planned`` footholds, the executed ones (``touchdowns``: (t, x, y, z) each)
+    and the ``failure`` ((t, (x, y, z) of the body, name) or None). Returns {path: time} of the markers shown from a
+    time on (the executed footholds, the failure)."""
     from pydrake.geometry import Box, Sphere
     from pydrake.math import RigidTransform, RotationMatrix
 
-    step = max(1, result.times.size // 2000)
-    meshcat.SetLine(f"{world}/path", np.asfortranarray(result.states[::step, :3].T), 2.0, rgba(PATH_RGB))
+    path = np.asarray(path, dtype=float)
+    step = max(1, len(path) // 2000)
+    meshcat.SetLine(f"{world}/path", np.asfortranarray(path[::step, :3].T), 2.0, rgba(PATH_RGB))
     diamond = RotationMatrix.MakeZRotation(math.pi / 4)
     for k, (x, y, z) in enumerate(planned[np.isfinite(planned).all(axis=1)]):
         meshcat.SetObject(f"{world}/planned/{k}", Box(MARKER, MARKER, 0.02), rgba(PLANNED_RGB))
         meshcat.SetTransform(f"{world}/planned/{k}", RigidTransform(diamond, [x, y, z + 0.012]))
     shown_from = {}
-    touchdowns = [e for e in result.events if e.kind == "touchdown" and e.foot is not None]
-    for k, e in enumerate(touchdowns):
+    for k, (t, *foot) in enumerate(touchdowns):
         meshcat.SetObject(f"{world}/executed/{k}", Sphere(0.45 * MARKER), rgba(EXECUTED_RGB))
-        meshcat.SetTransform(f"{world}/executed/{k}", RigidTransform(list(e.foot)))
-        shown_from[f"{world}/executed/{k}"] = float(e.time)
-    e = result.failure_event
-    if e is not None:
+        meshcat.SetTransform(f"{world}/executed/{k}", RigidTransform([float(v) for v in foot]))
+        shown_from[f"{world}/executed/{k}"] = float(t)
+    if failure is not None:
+        t, body, name = failure
         bars = np.array([[(-1, -1), (1, 1)], [(-1, 1), (1, -1)]]) * 0.12
         meshcat.SetTriangleMesh(f"{world}/failure/x", *stroke_mesh(bars, 0.03), rgba(FAILURE_RGB))
-        letters, width = text_segments(result.failure.name, 0.12)
+        letters, width = text_segments(name, 0.12)
         label = stroke_mesh(letters + (-min(width / 2, 0.4), 0.22), 0.02)
         meshcat.SetTriangleMesh(f"{world}/failure/label", *label, rgba(FAILURE_RGB))
-        meshcat.SetTransform(f"{world}/failure", facing_camera(list(e.state[:3])))
-        shown_from[f"{world}/failure"] = float(e.time)
+        meshcat.SetTransform(f"{world}/failure", facing_camera([float(v) for v in body]))
+        shown_from[f"{world}/failure"] = float(t)
     return shown_from
 
 
@@ -203,7 +204,10 @@ def draw_replay3d(meshcat, result: SimulationResult3D, planned_footholds=None, *
     x, y = result.states[0, :2]
     set_view(meshcat, float(np.nan_to_num(height_map.height_at(x, y))))
     draw_terrain(meshcat, height_map, np.concatenate([result.states[:, :2], planned[:, :2]]), world)
-    shown_from = draw_markers(meshcat, result, planned, world)
+    touchdowns = [(e.time, *e.foot) for e in result.events if e.kind == "touchdown" and e.foot is not None]
+    e = result.failure_event
+    failure = None if e is None else (e.time, e.state[:3], result.failure.name)
+    shown_from = draw_markers(meshcat, result.states[:, :3], touchdowns, failure, planned, world)
     hopper = f"{world}/hopper"
     meshcat.SetObject(f"{hopper}/body", Sphere(BODY_RADIUS), rgba(BODY_RGB))
     meshcat.SetTriangleMesh(f"{hopper}/leg/rod", *rod_mesh(LEG_RADIUS), rgba(LEG_RGB))
@@ -211,13 +215,14 @@ def draw_replay3d(meshcat, result: SimulationResult3D, planned_footholds=None, *
     return animate3d(meshcat, result, shown_from, root, fps=fps, speed=speed)
 
 
-def legend_items(result: SimulationResult3D, planned: bool) -> list:
-    """The page's legend: the ground, holes, the hopper and the markers the scene has."""
+def legend_items(hopper_items, planned: bool, failed: bool) -> list:
+    """The page's legend: the ground, holes, the hopper's parts (``hopper_items``: (rgb, name) each) and the markers
+    the scene has."""
     items = [(ground_colormap()(0.5)[:3], "ground (green low, brown high)"), (to_rgb(HOLE_COLOR), "hole"),
-             (BODY_RGB, "body"), (LEG_RGB, "leg"), (PATH_RGB, "body path"), (EXECUTED_RGB, "executed footholds")]
+             *hopper_items, (PATH_RGB, "body path"), (EXECUTED_RGB, "executed footholds")]
     if planned:
         items.append((PLANNED_RGB, "planned footholds"))
-    if result.failure is not None:
+    if failed:
         items.append((FAILURE_RGB, "failure"))
     return [swatch(rgb, text) for rgb, text in items]
 
@@ -236,7 +241,8 @@ def write_replay3d(result: SimulationResult3D, path, planned_footholds=None, tit
                        f"(x, y) = ({x:.2f}, {y:.2f}) m")
         else:
             outcome = "no failure"
-        items = legend_items(result, planned_footholds is not None and len(planned_footholds) > 0)
+        items = legend_items([(BODY_RGB, "body"), (LEG_RGB, "leg")],
+                             planned_footholds is not None and len(planned_footholds) > 0, result.failure is not None)
         return write_page(meshcat, path, title or "spatial SLIP hopper replay",
                           f"{len(result.footholds)} touchdowns, {outcome}", items, speed=speed, fps=fps)
     finally:

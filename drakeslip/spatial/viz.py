@@ -142,7 +142,7 @@ def plot_profile(ax, height_map: HeightMap, path: np.ndarray, executed, planned,
 
 
 # many parameters: the run's parts and the figure's options, as ``drakeslip.viz.plot_hops`` takes them
-def plot_run3d(height_map: HeightMap, path_xyz, footholalongexecuted, footholalongplanned=None, failure=None,
+def plot_run3d(height_map: HeightMap, path_xyz, executed_footholds, planned_footholds=None, failure=None,
                title: str = "", out=None, *, goal=None) -> Figure:
     """A spatial run at a glance: the top view of ``height_map`` around the body's path (``path_xyz`` (N, 3)) with
     the executed footholds ((k, 3)), the planned ones ((m, 2) x, y or (m, 3); None: none), the ``goal`` ((x, y)
@@ -151,8 +151,8 @@ def plot_run3d(height_map: HeightMap, path_xyz, footholalongexecuted, footholalo
     path = np.asarray(path_xyz, dtype=float).reshape(-1, 3)
     if len(path) == 0:
         raise ValueError("the run has no path to draw (path_xyz is empty)")
-    executed = foothold_points(footholalongexecuted, height_map)
-    planned = foothold_points(footholalongplanned, height_map)
+    executed = foothold_points(executed_footholds, height_map)
+    planned = foothold_points(planned_footholds, height_map)
     goal = None if goal is None else tuple(float(g) for g in goal)
     goal_xy = np.zeros((0, 2)) if goal is None else np.array([goal[:2]])
     cells = crop(height_map, np.concatenate([path[:, :2], executed[:, :2], planned[:, :2], goal_xy]), TOP_MARGIN)

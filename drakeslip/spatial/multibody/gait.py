@@ -34,6 +34,7 @@ from drakeslip.units import units_of
 # hopper's units): the energy bias the controller starts from and keeps learning
 LOSS_PRIOR = PLANAR_LOSS_PRIOR[0]
 APEX_HEIGHT = 0.62   # [m] the gait's apex above flat ground, the paper's hopper's (in a hopper's lengths)
+TRAJECTORY_STEP = 1.0 / 240.0   # [s] a logged trajectory's sampling (the paper's hopper's time): replays play at 30 fps
 CORNERS = np.array([(u, v, w) for u in (-1, 1) for v in (-1, 1) for w in (-1, 1)], dtype=float)
 
 
@@ -53,7 +54,8 @@ class BodyPose(NamedTuple):
 @dataclass
 class GaitLog:
     """Apexes (t, x, y, z, vx, vy, yaw) and touchdowns (t, x, y, z of the foot's contact) of a run, the largest
-    |roll| and |pitch| of the body over each hop (to its apex), and the failure (None if none)."""
+    |roll| and |pitch| of the body over each hop (to its apex), and the failure (None if none); for a run logged
+    with its trajectory, the plant's positions at ``times`` (every TRAJECTORY_STEP of the hopper's time)."""
 
     apexes: list = field(default_factory=list)
     touchdowns: list = field(default_factory=list)
@@ -61,6 +63,8 @@ class GaitLog:
     hop_pitch: list = field(default_factory=list)
     failure: RobotFailure | None = None
     speed_unit: float = 1.0   # the hopper's speed unit (``drakeslip.units``): tolerances scale with it
+    times: list = field(default_factory=list)
+    positions: list = field(default_factory=list)
 
     def max_attitude(self, after: int = 0) -> tuple:
         """The largest |roll| and |pitch| over the hops from the ``after``-th on."""
@@ -68,11 +72,13 @@ class GaitLog:
 
 
 class SpatialMonitor:
-    """A ``Simulator.set_monitor`` callback over a ``SpatialHopperDiagram``: logs the run into ``log``, ends it at a
-    failure and, with ``pause_at_apexes``, pauses it at each apex (``at_apex`` turns True; the caller resets it)."""
+    """A ``Simulator.set_monitor`` callback over a ``SpatialHopperDiagram``: logs the run into ``log`` (with its
+    trajectory where ``trajectory``), ends it at a failure and, with ``pause_at_apexes``, pauses it at each apex
+    (``at_apex`` turns True; the caller resets it)."""
 
-    def __init__(self, sd, root_context, pause_at_apexes: bool = True):
+    def __init__(self, sd, root_context, pause_at_apexes: bool = True, trajectory: bool = False):
         self.sd, self.pause_at_apexes = sd, pause_at_apexes
+        self.logged_every = TRAJECTORY_STEP * units_of(sd.params.slip).time if trajectory else None
         self.plant_context = sd.plant.GetMyContextFromRoot(root_context)
         self.controller_context = sd.controller.GetMyContextFromRoot(root_context)
         self.log = GaitLog(speed_unit=units_of(sd.params.slip).speed)
@@ -100,6 +106,9 @@ class SpatialMonitor:
         c = self.sd.controller.control_state_of(self.controller_context)
         phase = Phase(int(c.phase))
         log = self.log
+        if self.logged_every is not None and (not log.times or t >= log.times[-1] + self.logged_every):
+            log.times.append(t)
+            log.positions.append(self.sd.plant.GetPositions(self.plant_context).copy())
         if phase != self.phase:
             if phase == Phase.STANCE:
                 contact = foot - (0.0, 0.0, p.foot_radius)
