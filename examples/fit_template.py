@@ -122,32 +122,41 @@ def fit_planar(ap, args) -> int:
     return OK
 
 
-def map_suites(ap, args) -> list:
-    """The --suites map suites, or the map families drawn from --seed; one line and exit status 2 otherwise."""
+def map_suites(ap, args) -> tuple:
+    """(the --suites map suites, or the map families drawn from --seed; the hopper they were drawn for); one line and
+    exit status 2 for a file that is not a map suite or suites of different hoppers."""
     from drakeslip.spatial.families import HEIGHT_MAP_FAMILIES
     from planners.formats.map_suite import load_map_suite, make_map_suite
+    from planners.formats.suite_draw import suite_hopper
 
     try:
         if args.suites is None:
-            return [make_map_suite(family, args.seed + 100 * k) for k, family in enumerate(HEIGHT_MAP_FAMILIES)]
-        return [load_map_suite(path) for path in args.suites.split(",")]
+            suites = [make_map_suite(family, args.seed + 100 * k) for k, family in enumerate(HEIGHT_MAP_FAMILIES)]
+        else:
+            suites = [load_map_suite(path) for path in args.suites.split(",")]
     except (OSError, ValueError) as error:
         ap.error(str(error))
+    hoppers = {suite.name: suite_hopper(suite) for suite in suites}
+    first = next(iter(hoppers.values()))
+    other = next((name for name, h in hoppers.items() if h.params.with_friction(first.params.friction)
+                  != first.params), None)
+    if other is not None:
+        ap.error(f"--suites: {other} was drawn for another hopper than {suites[0].name}; fit one hopper at a time")
+    return suites, first.params
 
 
 def fit_spatial(ap, args, argv) -> int:
     """The spatial robot's fit (module doc)."""
-    from drakeslip.params import SlipParams
     from drakeslip.spatial.multibody.fit import FIT_FILE, SpatialHop, errors, fit_factors, fitted, save_fit, summary
     from verification.robot_hops import map_robot_hops
 
-    suites = map_suites(ap, args)
+    suites, hopper = map_suites(ap, args)
     cli.announce(argv)
     tasks, held_out = [], set()
     for suite in suites:
         cases = suite.cases[::args.every]
         for i, case in enumerate(cases[:args.cases + args.held_out]):
-            tasks.append((case.id, ("step", case, SlipParams().with_friction(suite.friction))))
+            tasks.append((case.id, ("step", case, hopper.with_friction(suite.friction))))
             if i >= args.cases:
                 held_out.add(case.id)
     train, test = [], []
@@ -158,7 +167,6 @@ def fit_spatial(ap, args, argv) -> int:
     if not train or not test:
         print(f"{len(train)} hops to fit and {len(test)} held out: too few")
         return FAILED
-    hopper = SlipParams()
     factors = fit_factors(train, hopper)
     report = {"hops": {"fit": len(train), "held_out": len(test)}}
     for name, t in (("own", hopper), ("fitted", fitted(hopper, factors))):

@@ -101,13 +101,28 @@ def test_the_script_fits_the_spatial_robots_hops_and_writes_the_factors(run_scri
     assert template.leg_length == pytest.approx(0.5 * report["factors"]["leg_length"])
 
 
+@pytest.fixture
+def other_hoppers_suite(tmp_path):
+    """A one-map stones suite drawn for a 12 kg hopper with a 0.7 m leg."""
+    from drakeslip.hopper_file import NamedHopper
+    from planners.formats.map_suite import make_map_suite, save_map_suite
+
+    big = NamedHopper(replace(ds.SlipParams(), mass=12.0, leg_length=0.7, stiffness=5000.0), "big")
+    save_map_suite(make_map_suite("stones", 5, n_maps=1, hopper=big), tmp_path / "big.json")
+    return tmp_path / "big.json"
+
+
 @pytest.mark.parametrize("args, named", [
     (["--robot", "spatial", "--suites", "{tmp}/missing.json"], "missing.json"),
+    (["--robot", "spatial", "--suites", "{small},{big}"], "stones-5 was drawn for another hopper than gap"),
     (["--robot", "spatial", "--suites", "suites/ditch.json"], "suites/ditch.json"),
     (["--jobs", "2"], "--jobs, --executor and --seed are for --robot spatial"),
 ])
-def test_the_script_refuses_bad_input_in_one_line(run_script, tmp_path, args, named):
-    args = [a.replace("{tmp}", str(tmp_path)) for a in args]
+def test_the_script_refuses_bad_input_in_one_line(run_script, tmp_path, small_map_suite, other_hoppers_suite, args,
+                                                  named):
+    fill = {"{tmp}": tmp_path, "{small}": small_map_suite, "{big}": other_hoppers_suite}
+    for key, value in fill.items():
+        args = [a.replace(key, str(value)) for a in args]
     code, out, err = run_script("fit_template", *args, "--out", tmp_path / "fit.json")
     assert code == 2 and not out and len(err.splitlines()) == 1 and named in err, err
     assert not (tmp_path / "fit.json").exists()

@@ -60,9 +60,7 @@ def draw_spatial_robot_replay(meshcat, log: GaitLog, height_map: HeightMap, plan
     from pydrake.math import RigidTransform
 
     model = model or SpatialRobotModel()
-    positions = model.positions(log)
-    if len(positions) == 0:
-        raise ValueError("the run has no trajectory to replay: run it with its trajectory")
+    positions = model.positions(log)   # ValueError for a run logged without its trajectory
     times, path = np.asarray(log.times, dtype=float), model.body_path(positions)
     root = prefix.rstrip("/")
     world = f"{root}/world"
