@@ -7,10 +7,16 @@ planning call; the file holds the whole terrain, so examples/verify_plan.py chec
     python3 examples/make_plan.py --suite suites/step.json --case 7 --planner trajopt \
         --options '{"seed": "lstm-guided"}' --out out/trajopt-plan.json
     python3 examples/make_plan.py --hopper my_hopper.json --terrain my_ground.csv --planner step --out out/plan.json
+    python3 examples/make_plan.py --suite out/maps/stones-0.json --case 3 --planner step@robust --out out/map-plan.json
 
 The plan is made for the suite's hopper (--hopper, a hopper file or folder, must be that one: its folder's weights
 are then read) and recorded in the file. --terrain plans on a terrain file instead of a suite's case, for --hopper
 (default: the paper's), from the start plan_and_hop.py takes (--start-x, --speed, --height, --goal as there).
+
+A height-map suite (examples/make_suites.py --families gaps,...) gives a map plan (drakeslip-map-plan/1,
+planners/formats/map_plan.py): the planner sees the window the map loop's first planning call sees, and the file
+holds the map as the suite records it (a drawn map's family, seed and digest, or a map file's path and digest); its
+--plot draws the plan over the map, top view and profile.
 
 --plot PATH.png draws the search tree the planner expanded over the terrain, the plan in bold (the search
 planners, angle and step, run their search once more to keep the tree: the same search, the same plan; other
@@ -21,6 +27,7 @@ line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
+import math
 import sys
 
 from drakeslip.jobs import cli
@@ -33,7 +40,8 @@ from planners.registry import check_label, labels
 def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
     ground = ap.add_mutually_exclusive_group(required=True)
-    ground.add_argument("--suite", type=cli.input_file, help="suite file (drakeslip-suite/1 JSON)")
+    ground.add_argument("--suite", type=cli.input_file,
+                        help="suite file (drakeslip-suite/1, or drakeslip-map-suite/1 for a map plan)")
     ground.add_argument("--terrain", type=cli_physics.terrain_or_family(), help="terrain file (a height profile)")
     ap.add_argument("--case", default=None, help="with --suite: case index (0-based) or case id")
     cli_physics.add_hopper_argument(ap, default="the suite's, else the paper's")
@@ -68,6 +76,8 @@ def checked_options(ap: cli.ArgumentParser, args) -> dict:
 def checked_case(ap: cli.ArgumentParser, args, options: dict):
     """(the suite, its hopper, the planner, the case to plan): a suite's case, or the one case of --terrain; or one
     line and exit status 2 for a bad suite, terrain, hopper, planner label or case."""
+    from drakeslip.jobs.files import read_json
+    from planners.formats.map_suite import is_map_suite, load_map_suite
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite, one_case
     from planners.registry import hopper_specs, make_planners
@@ -76,7 +86,8 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
         ap.error("--case goes with --suite (and --suite needs it)")
     try:
         if args.suite is not None:
-            suite = load_suite(args.suite)
+            suite = load_map_suite(args.suite) if is_map_suite(read_json(args.suite, "suite file")) else \
+                load_suite(args.suite)
             hopper = hopper_for_suite(suite, args.hopper)
         else:
             suite = one_case(args.terrain.terrain, hopper=args.hopper, speed=args.speed, height=args.height,
@@ -87,12 +98,12 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
         ap.error(str(error))
     ids = [c.id for c in suite.cases]
     if args.case in ids:
-        case = suite.cases[ids.index(args.case)]
+        index = ids.index(args.case)
     elif args.case.isdigit() and int(args.case) < len(ids):
-        case = suite.cases[int(args.case)]
+        index = int(args.case)
     else:
         ap.error(f"--case {args.case!r} is neither a case id nor an index below {len(ids)} in {args.suite}")
-    return suite, hopper, planner, case
+    return suite, hopper, planner, index
 
 
 @cli_physics.reports_crashes
@@ -100,12 +111,17 @@ def main(argv=None) -> int:
     ap = arguments()
     args = ap.parse_args(argv)
     options = checked_options(ap, args)
-    suite, hopper, planner, case = checked_case(ap, args, options)
+    suite, hopper, planner, index = checked_case(ap, args, options)
+
+    from planners.formats.map_suite import MapSuite
+
+    if isinstance(suite, MapSuite):
+        return map_plan(planner, suite, index, hopper, args)
 
     from drakeslip.units import units_of
     from planners.formats.plan import save_plan
 
-    params = hopper.params.with_friction(suite.friction)
+    case, params = suite.cases[index], hopper.params.with_friction(suite.friction)
     window = case.terrain.perceived(case.apex.x, *units_of(params).window)
     plan = planner.plan(case.apex, window, suite.goal_x, params)
     if args.plot:
@@ -116,6 +132,31 @@ def main(argv=None) -> int:
     save_plan(args.out, plan, case.apex, case.terrain, suite.goal_x, params, hopper)
     print(f"{args.planner} on {case.id}: {len(plan.footholds)} footholds to x={plan.footholds[-1]:.3f} "
           f"(target {plan.target_x:g}) in {plan.time_s:.3f} s; wrote {args.out}")
+    return cli.OK
+
+
+def map_plan(planner, suite, index: int, hopper, args) -> int:
+    """The plan of a map suite's case from the window its first planning call sees, saved as a map plan."""
+    from planners.formats.map_plan import save_map_plan
+    from planners.spatial_loop import perception_window
+
+    case, params = suite.cases[index], hopper.params.with_friction(suite.friction)
+    plan = planner.plan(case.apex, perception_window(case.terrain, case.apex, case.goal, params), case.goal, params)
+    if not plan.success:
+        print(f"{args.planner} on {case.id}: {plan.message}")
+        return cli.FAILED
+    record = save_map_plan(args.out, plan, case, suite.sources[index], params, hopper)
+    last = record.footholds[-1]
+    print(f"{args.planner} on {case.id}: {len(record.footholds)} footholds to ({last[0]:.3f}, {last[1]:.3f}) (target "
+          f"({record.target[0]:g}, {record.target[1]:g})) in {plan.time_s:.3f} s; wrote {args.out}")
+    if args.plot:
+        from drakeslip.spatial.viz import plot_run3d
+
+        path = [case.apex[:3]] + [a[:3] for a in record.apexes if all(map(math.isfinite, a))]
+        args.plot.parent.mkdir(parents=True, exist_ok=True)
+        plot_run3d(case.terrain, path, [], record.footholds, None, f"{args.planner} on {case.id}: the plan, "
+                   f"{len(record.footholds)} footholds; {plan.ode_calls} step-map calls", args.plot, goal=case.goal)
+        print(f"figure: {args.plot}")
     return cli.OK
 
 

@@ -10,6 +10,12 @@ plan's footholds through the controller, without replanning, for the plan's firs
 the fast backend; --drake K reruns the first K on Drake. The plan's own margins on Drake (spring travel left,
 friction to spare, distance of its footholds from edges) are printed first: they are what noise eats into.
 
+A map plan (drakeslip-map-plan/1, examples/make_plan.py on a height-map suite) draws the profile's 3D form
+(drakeslip/spatial/noise.py: apex errors in x, y, z, xdot, ydot, both leg angles, the map's heights and a shift in x
+and y) and runs on the spatial SLIP's fast step map (--drake K reruns on its Drake simulator) or, with --backend
+multibody, on the spatial robot built for each draw's hopper, whose own estimation and actuation take the apex and
+angle errors' place (verification/map_robustness.py); its margins are verify_plan.py's on the map.
+
 --out writes the result as JSON (the rate, the failures, every draw's errors and outcome, where the result came
 from, and the plan's hopper); --hopper checks the plan against a hopper file or folder (a plan made for another
 hopper is refused in one line); --plot draws the draws in (apex error, leg-angle error) space coloured by outcome
@@ -31,7 +37,8 @@ from drakeslip.terrain import check_window
 
 def arguments() -> cli.ArgumentParser:
     ap = cli.ArgumentParser(__doc__)
-    ap.add_argument("--plan", type=cli.input_file, required=True, help="plan file (drakeslip-plan/2 JSON)")
+    ap.add_argument("--plan", type=cli.input_file, required=True,
+                    help="plan file (drakeslip-plan/2 JSON, or drakeslip-map-plan/1)")
     cli_physics.add_hopper_argument(ap, default="the plan file's")
     ap.add_argument("--noise", type=cli_physics.noise_profile, default="realistic",
                     help=f"noise profile: {', '.join(PROFILES)}, or NAME*K scaled by K")
@@ -45,8 +52,8 @@ def arguments() -> cli.ArgumentParser:
     ap.add_argument("--drake", type=cli.non_negative_int, default=0, metavar="K",
                     help="rerun the first K draws on Drake and report agreement")
     ap.add_argument("--backend", choices=("fast", "multibody"), default="fast",
-                    help="what runs the draws: the fast step map, or the multibody robot (drakeslip/multibody: about "
-                         "a second per hop; --drake then reruns on the SLIP's Drake simulator)")
+                    help="what runs the draws: the fast step map, or the multibody robot (drakeslip/multibody, "
+                         "drakeslip/spatial/multibody for a map plan: about a second per hop)")
     ap.add_argument("--out", type=cli.output_file(".json"), default=None, help="also write the result (JSON)")
     ap.add_argument("--plot", type=cli.output_file(".png"), default=None,
                     help="also draw the draws by outcome in (apex error, leg-angle error) space (PNG)")
@@ -66,13 +73,16 @@ def checked_plan(ap: cli.ArgumentParser, args):
         ap.error(str(error))
 
     from drakeslip.hopper_file import check_same_hopper, hopper_for
+    from drakeslip.jobs.files import read_json
+    from planners.formats.map_plan import is_map_plan, load_map_plan
     from planners.formats.plan import load_plan
 
     try:
-        record = load_plan(args.plan)
+        on_map = is_map_plan(read_json(args.plan, "plan file"))
+        record = load_map_plan(args.plan) if on_map else load_plan(args.plan)
         if args.hopper is not None:
             check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
-        if args.backend == "multibody":
+        if args.backend == "multibody" and not on_map:   # the spatial robot is built for any hopper
             from drakeslip.multibody.robot import check_robot_hopper
 
             check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
@@ -85,8 +95,18 @@ def checked_plan(ap: cli.ArgumentParser, args):
 
 def print_margins(record) -> None:
     """The plan on Drake without noise: its margins, or where it fails."""
+    from planners.formats.map_plan import MapPlanRecord
+    from verification.map_plan_check import check_map_plan
     from verification.plan_check import check_plan
+    from verification.plan_check_options import TOLERANCE
 
+    if isinstance(record, MapPlanRecord):
+        nominal = check_map_plan(record, "footholds", TOLERANCE)
+        print(f"{record.planner} plan on a height map, {len(record.footholds)} footholds; on Drake without noise: "
+              + ("the plan as written, margins:" if nominal.ok else nominal.reason()))
+        for name, (value, hop) in (nominal.margins or {}).items():
+            print(f"  {name:<15} {value:9.4f} (hop {hop})")
+        return
     nominal = check_plan(record, "footholds")
     print(f"{record.planner} plan, {len(record.footholds)} footholds; on Drake without noise: "
           + ("the plan as written, margins:" if nominal.ok else nominal.reason()))
@@ -98,25 +118,30 @@ def print_margins(record) -> None:
 def drawn(args, record) -> dict:
     """The Monte Carlo draws (and their reruns on Drake with --drake), printed, as the result document."""
     from drakeslip.hopper_file import hopper_for
+    from planners.formats.map_plan import MapPlanRecord
+    from verification.map_robustness import confirm_map_on_drake, map_success_probability
     from verification.provenance import provenance
     from verification.robustness import confirm_on_drake, success_probability
 
+    on_map = isinstance(record, MapPlanRecord)
     t0 = time.perf_counter()
-    result = success_probability(record, args.samples, args.noise, args.seed, backend=args.backend, hops=args.hops,
-                                 map_filter=args.map_filter)
+    result = (map_success_probability if on_map else success_probability)(
+        record, args.samples, args.noise, args.seed, backend=args.backend, hops=args.hops, map_filter=args.map_filter)
     print(f"{time.perf_counter() - t0:.2f} s")
     print(result.format())
     if args.drake:
         t0 = time.perf_counter()
-        confirmation = confirm_on_drake(result, args.drake)
+        confirmation = (confirm_map_on_drake if on_map else confirm_on_drake)(result, args.drake)
         print(confirmation.format() + f" ({time.perf_counter() - t0:.1f} s)")
     document = {**result.to_dict(), "plan": str(args.plan),
                 "hopper": (record.hopper or hopper_for(record.params)).to_record(), "provenance": provenance()}
     if args.backend == "multibody":   # the robot each draw ran: built around the draw's hopper
         from drakeslip.multibody.robot import RobotParams
+        from drakeslip.spatial.multibody.robot import SpatialRobotParams
         from planners.replanning import robot_record
 
-        document["robot"] = robot_record(RobotParams(slip=record.params))
+        document["robot"] = robot_record(SpatialRobotParams.for_hopper(record.params) if on_map else
+                                         RobotParams(slip=record.params))
     if args.drake:
         document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
     return document

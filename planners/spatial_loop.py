@@ -84,9 +84,7 @@ class MapLoop:
         # apex told lands there (the robot is not where the template would be: its last plan may no longer fit)
         self.checks_flying_on = checks_flying_on
         self.plans_for = plans_for or params   # the template the planner plans for (a robot's: see its loop)
-        units = units_of(params)
-        self.ahead, self.behind = WINDOW_AHEAD * units.length, WINDOW_BEHIND * units.length
-        self.aside, self.radius = WINDOW_ASIDE * units.length, GOAL_RADIUS * units.length
+        self.radius = GOAL_RADIUS * units_of(params).length
         self.noise = config.noise.for_hopper(params)
         self.rng = np.random.default_rng(case_seed(config.seed, case.id))
         self.executed = drawn_hopper(self.noise, params, self.rng)   # the generator's first draw, as in the plane
@@ -167,8 +165,7 @@ class MapLoop:
             self.apex_errors = apex_errors3d(self.noise, self.rng, k)
             self.angle_errors = angle_errors3d(self.noise, self.rng, k)
         seen, goal = self.told(apex, 0), self.aim
-        window = self.case.terrain.perceived(seen[0], seen[1], (goal[0] - seen[0], goal[1] - seen[1]), self.ahead,
-                                             self.aside, self.behind)
+        window = perception_window(self.case.terrain, seen, goal, self.params)
         if not self.noise.silent:
             window = perceived_map(self.noise, window, self.rng, self.config.map_filter)
         self.window = window
@@ -197,6 +194,14 @@ class MapLoop:
             return False
         self.queue, self.rest = footholds[:k], footholds[k:]
         return True
+
+
+def perception_window(height_map: HeightMap, at, goal, params: SlipParams) -> HeightMap:
+    """The part of ``height_map`` a hopper at ``at`` (x, y, ...) senses looking toward ``goal`` (x, y): WINDOW_AHEAD
+    ahead, WINDOW_BEHIND behind and WINDOW_ASIDE to either side, in the hopper's lengths."""
+    length = units_of(params).length
+    return height_map.perceived(at[0], at[1], (goal[0] - at[0], goal[1] - at[1]), WINDOW_AHEAD * length,
+                                WINDOW_ASIDE * length, WINDOW_BEHIND * length)
 
 
 def run_map_case(planner, case: MapCase, params: SlipParams, config: ClosedLoopConfig = ClosedLoopConfig()):

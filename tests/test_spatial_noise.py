@@ -13,7 +13,7 @@ from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.noise import angle_errors3d, apex_errors3d, apex_sizes3d, denoised_map, perceived_map
 from drakeslip.units import units_of
 from planners.replanning import ClosedLoopConfig, case_seed, drawn_hopper
-from planners.spatial_loop import MapCase, MapLoop, run_map_case
+from planners.spatial_loop import MapCase, MapLoop, perception_window, run_map_case
 from test_spatial_planners import START, walled_map
 
 P = ds.SlipParams()
@@ -119,8 +119,7 @@ def test_the_loop_draws_in_the_planar_order(step_planner):
     aimed = leg_angles_for(seen, record["executed"][0], P)
     assert np.array_equal(command, np.add(aimed, angle_errors[0]))
     goal = loop.aim
-    window = case.terrain.perceived(seen[0], seen[1], (goal[0] - seen[0], goal[1] - seen[1]), loop.ahead,
-                                    loop.aside, loop.behind)
+    window = perception_window(case.terrain, seen, goal, P)
     perceived_map(REALISTIC, window, rng)
     assert rng.normal() == loop.rng.normal()   # the map was the call's last draw
     assert goal[0] == pytest.approx(7.0 + 5 * 0.005) and goal[1] == pytest.approx(0.0)

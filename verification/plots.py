@@ -219,19 +219,26 @@ def noise_figure(runs: list, path):
 def robustness_figure(result: dict, path, title: str = ""):
     """The Monte Carlo draws of ``Robustness.to_dict()`` in (apex error, leg-angle error) space, coloured by
     outcome: per draw the largest (signed) error over the hops counted, apex x [mm] (left) and xdot [cm/s]
-    (right) against leg angle [deg]."""
+    (right) against leg angle [deg]; for a map plan's draws (apexes (x, y, z, xdot, ydot), angles (pitch, roll))
+    the largest over x and y, over xdot and ydot, and over both angles."""
     draws = result["draws"]
-    apex = np.array(draws["apex_errors"], dtype=float).reshape(len(draws["outcome"]), -1, 3)
-    angle = np.array(draws["angle_errors"], dtype=float).reshape(len(draws["outcome"]), -1)
+    n = len(draws["outcome"])
+    spatial = np.asarray(draws["apex_errors"][0]).shape[-1] == 5
+    apex = np.array(draws["apex_errors"], dtype=float).reshape(n, -1, 5 if spatial else 3)
+    angle = np.array(draws["angle_errors"], dtype=float).reshape(n, -1)
     outcome = np.array(draws["outcome"])
+    position, speed = ((0, 1), (3, 4)) if spatial else ((0,), (2,))
 
-    def worst(values):  # the signed value of largest magnitude along the hops
+    def worst(values):  # the signed value of largest magnitude along the hops (and the columns given)
+        values = values.reshape(n, -1)
         return np.take_along_axis(values, np.abs(values).argmax(axis=1)[:, None], axis=1)[:, 0]
 
     th = np.degrees(worst(angle))
     fig, axes = figure((11.0, 4.6), 1, 2)
-    for ax, values, unit in ((axes[0, 0], 1e3 * worst(apex[:, :, 0]), "apex x error told [mm]"),
-                             (axes[0, 1], 1e2 * worst(apex[:, :, 2]), "apex xdot error told [cm/s]")):
+    for ax, values, unit in ((axes[0, 0], 1e3 * worst(apex[:, :, position]),
+                              f"apex {'x or y' if spatial else 'x'} error told [mm]"),
+                             (axes[0, 1], 1e2 * worst(apex[:, :, speed]),
+                              f"apex {'xdot or ydot' if spatial else 'xdot'} error told [cm/s]")):
         for kind in sorted(set(outcome), key=lambda k: (k != "ok", k)):
             pick = outcome == kind
             ok = kind == "ok"

@@ -145,21 +145,30 @@ def success_probability(record: PlanRecord, n: int, noise: NoiseProfile, seed: i
                         map_filter: int = 1) -> Robustness:
     """Success rate of ``record``'s footholds over ``n`` robots drawn from ``noise`` (see the module doc), over
     its first ``hops`` hops (default all), each robot filtering its sensed map over ``map_filter`` cells."""
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise ValueError(f"n must be a positive integer, got {n!r}")
-    if not isinstance(noise, NoiseProfile):
-        raise TypeError(f"noise must be a drakeslip.noise.NoiseProfile, got {type(noise).__name__}")
-    if backend not in ROLLOUT_BACKENDS:
-        raise ValueError(f"backend must be one of {ROLLOUT_BACKENDS}, got {backend!r}")
-    total = len(record.footholds)
-    hops = total if hops is None else hops
-    if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
-        raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
-    map_filter = check_window(map_filter, "map_filter")
+    hops, map_filter = checked_settings(record, n, noise, backend, ROLLOUT_BACKENDS, hops, map_filter)
     controller = (controller or StepLengthController.load_default()).for_params(record.params)
     draws = draw_robots(record, n, noise, seed, hops, map_filter)
     failures, failed = _run(record, draws, hops, controller, backend)
     return Robustness(record, noise, seed, backend, hops, draws, failures, failed, map_filter)
+
+
+# many parameters: every setting of a Monte Carlo that the caller gives
+def checked_settings(record, n: int, noise: NoiseProfile, backend: str, backends: tuple, hops: int | None,
+                     map_filter: int) -> tuple:
+    """(the hops counted, the map filter) of a Monte Carlo over ``record``'s plan: ``n`` a positive integer, ``noise``
+    a NoiseProfile, ``backend`` one of ``backends``, ``hops`` (None: all) within the plan's, ``map_filter`` odd;
+    ValueError or TypeError naming the bad one otherwise."""
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise ValueError(f"n must be a positive integer, got {n!r}")
+    if not isinstance(noise, NoiseProfile):
+        raise TypeError(f"noise must be a drakeslip.noise.NoiseProfile, got {type(noise).__name__}")
+    if backend not in backends:
+        raise ValueError(f"backend must be one of {backends}, got {backend!r}")
+    total = len(record.footholds)
+    hops = total if hops is None else hops
+    if isinstance(hops, bool) or not isinstance(hops, int) or not 1 <= hops <= total:
+        raise ValueError(f"hops must be an integer in [1, {total}], got {hops!r}")
+    return hops, check_window(map_filter, "map_filter")
 
 
 def confirm_on_drake(result: Robustness, n_small: int,

@@ -116,19 +116,14 @@ class PlanRecord:
         return {"format": PLAN_FORMAT, "planner": self.planner, "apex": self.apex._asdict(),
                 "terrain": {**self.terrain.to_dict(), "ditch_height": self.terrain.ditch_height},
                 "params": asdict(self.params), "goal_x": self.goal_x, "target_x": self.target_x,
-                "footholds": self.footholds.tolist(), "leg_angles": _nulls(self.leg_angles),
-                "apexes": _nulls(self.apexes),
+                "footholds": self.footholds.tolist(), "leg_angles": nulls(self.leg_angles),
+                "apexes": nulls(self.apexes),
                 **({"hopper": self.hopper.to_record()} if self.hopper is not None else {})}
 
     @classmethod
     def from_dict(cls, d, source: str = "plan") -> "PlanRecord":
         """Check every field; a bad one raises ValueError naming ``source`` and the field (e.g. footholds[2])."""
-        fmt = required_field(d, "format", source)
-        if fmt not in READ_FORMATS:
-            raise ValueError(f"{source}: format must be one of {READ_FORMATS}, got {fmt!r}")
-        planner = required_field(d, "planner", source)
-        if not isinstance(planner, str):
-            raise ValueError(f"{source}: planner must be a string, got {planner!r}")
+        planner = read_planner(d, source, READ_FORMATS)
         t = required_field(d, "terrain", source)
         where = f"{source}: terrain"
         heights = required_field(t, "heights", where)
@@ -142,13 +137,7 @@ class PlanRecord:
         apex = read_apex(required_field(d, "apex", source), f"{source}: apex")
         if apex.z <= terrain.height_at(apex.x):
             raise ValueError(f"{source}: apex.z={apex.z} is not above the terrain at x={apex.x}")
-        p = required_field(d, "params", source)
-        if not isinstance(p, dict):
-            raise ValueError(f"{source}: params must be an object, got {type(p).__name__}")
-        try:
-            params = params_from_record(p)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(f"{source}: params: {exc}") from exc
+        params = read_params(d, source)
         footholds = [check_number(v, f"{source}: footholds[{i}]", bound=POSITION)
                      for i, v in enumerate(_list(d, "footholds", source))]
         n = len(footholds)
@@ -200,9 +189,33 @@ def _terrain(spec) -> Terrain:
     raise TypeError(f"terrain must be a Terrain, its to_dict() form or {{'family', 'seed'}}, got {spec!r}")
 
 
-def _nulls(values: np.ndarray) -> list:
+def nulls(values: np.ndarray) -> list:
     """NaN -> None, element-wise on nested lists (JSON has no NaN)."""
-    return [_nulls(v) if isinstance(v, np.ndarray) else (None if math.isnan(v) else float(v)) for v in values]
+    return [nulls(v) if isinstance(v, np.ndarray) else (None if math.isnan(v) else float(v)) for v in values]
+
+
+def read_planner(d, source: str, formats: tuple) -> str:
+    """The planner named by a plan document whose format is one of ``formats``; ValueError naming the field
+    otherwise."""
+    fmt = required_field(d, "format", source)
+    if fmt not in formats:
+        wanted = f"one of {formats}" if len(formats) > 1 else repr(formats[0])
+        raise ValueError(f"{source}: format must be {wanted}, got {fmt!r}")
+    planner = required_field(d, "planner", source)
+    if not isinstance(planner, str):
+        raise ValueError(f"{source}: planner must be a string, got {planner!r}")
+    return planner
+
+
+def read_params(d, source: str) -> SlipParams:
+    """A plan document's ``params`` (the hopper with the ground's friction); ValueError naming the field otherwise."""
+    p = required_field(d, "params", source)
+    if not isinstance(p, dict):
+        raise ValueError(f"{source}: params must be an object, got {type(p).__name__}")
+    try:
+        return params_from_record(p)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{source}: params: {exc}") from exc
 
 
 def _optional(value, where: str, bound=None) -> float:

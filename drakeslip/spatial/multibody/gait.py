@@ -184,11 +184,11 @@ def hop_flat(velocities, hops: int, params: SpatialRobotParams | None = None, pu
 
 
 def execute(apex, height_map: HeightMap, footholds, params: SpatialRobotParams | None = None,
-            apex_height: float | None = None) -> GaitLog:
+            apex_height: float | None = None, trajectory: bool = False) -> GaitLog:
     """Hop the robot from ``apex`` (x, y, z, vx, vy; body level, facing +x, leg aimed at the first foothold) over
     ``height_map``, touching down on each of ``footholds`` ((x, y, z) of the contact) and stopping at the apex after
     the last, keeping the start's energy on the footholds (as the template does) and hopping ``apex_height`` high
-    (default the start's) after them."""
+    (default the start's) after them; the log holds the plant's trajectory where ``trajectory``."""
     params = params or SpatialRobotParams()
     apex = tuple(float(v) for v in apex)
     footholds = tuple(tuple(float(v) for v in f) for f in footholds)
@@ -196,7 +196,7 @@ def execute(apex, height_map: HeightMap, footholds, params: SpatialRobotParams |
                              velocity=apex[3:5])
     sd = _map_diagram(height_map, params)
     return _run(sd, apex, leg_toward(apex, footholds[0] if footholds else None, params), lambda k: command,
-                len(footholds) + 1, {})
+                len(footholds) + 1, {}, trajectory)
 
 
 def leg_toward(apex, foothold, params: SpatialRobotParams) -> tuple:
@@ -208,16 +208,16 @@ def leg_toward(apex, foothold, params: SpatialRobotParams) -> tuple:
                                params.rest_extension, params.slip.gravity)[0])
 
 
-def _run(sd, apex, leg, commands, hops: int, pushes: dict) -> GaitLog:
+def _run(sd, apex, leg, commands, hops: int, pushes: dict, trajectory: bool = False) -> GaitLog:
     """Run ``sd`` from ``apex`` (x, y, z, vx, vy) with the leg along the world direction ``leg``, the command
     ``commands(k)`` from apex k on, the impulses ``pushes`` ({k: (Jx, Jy)} [N s]) at their apexes, until ``hops``
-    apexes or a failure."""
+    apexes or a failure; the plant's positions logged where ``trajectory``."""
     params = sd.params
     simulator = Simulator(sd.diagram)
     context = simulator.get_mutable_context()
     set_apex_state(sd, context, apex[:3], apex[3:5], leg, LOSS_PRIOR * units_of(params.slip).speed ** 2)
     set_command(sd, context, commands(0))
-    monitor = SpatialMonitor(sd, context)
+    monitor = SpatialMonitor(sd, context, trajectory=trajectory)
     simulator.set_monitor(monitor)
     plant_context = sd.plant.GetMyMutableContextFromRoot(context)
     linear = list(sd.layout.linear)
