@@ -31,8 +31,6 @@ import math
 import sys
 from dataclasses import replace
 
-import numpy as np
-
 from drakeslip.jobs import cli
 from drakeslip import cli_physics
 from verification.plan_check_options import MODES, TOLERANCE
@@ -133,6 +131,8 @@ def draw(result, record, args) -> None:
 def checked_map_plan(ap: cli.ArgumentParser, args):
     """The map plan file's record, or one line and exit status 2 for flags that do not go together, a malformed
     file, another hopper's plan or a plan --mode cannot run."""
+    import numpy as np
+
     from drakeslip.hopper_file import check_same_hopper
     from planners.formats.map_plan import load_map_plan
 
@@ -154,6 +154,8 @@ def checked_map_plan(ap: cli.ArgumentParser, args):
 def checked_on_map(record, args) -> int:
     """A map plan run on the spatial SLIP or robot (``verification.map_plan_check``): the verdict printed, written
     with --out, drawn with --plot and --html."""
+    import numpy as np
+
     from drakeslip.jobs.runner import write_json
     from verification.map_plan_check import check_map_plan
     from verification.provenance import provenance
