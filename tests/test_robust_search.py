@@ -216,3 +216,16 @@ def test_a_robust_planner_searches_last_with_a_quarter_of_its_edge_margin(contro
     assert planners.make("step", controller=controller).last_resort(units_of(params)) is None
     with pytest.raises(ValueError, match="last_resort_margin"):
         planners.make("step@robust", last_resort_margin=1.5)
+
+
+def test_the_robust_noise_is_a_profile_by_name_or_by_its_fields(run_script, tmp_path):
+    """``{"robustness": {"noise": "realistic*3"}}`` as --options gives it is the profile ``--noise`` would give; a
+    name that is none, or a value that is not a profile, is refused naming it, in one line before any work."""
+    assert Robustness(noise="realistic*3").noise == ds.noise.PROFILES["realistic"].scaled(3.0)
+    assert Robustness(noise={"apex": (0.01, 0.0, 0.0)}).noise.apex == (0.01, 0.0, 0.0)
+    with pytest.raises(ValueError, match=r"Robustness\.noise must be a noise profile .*got 3"):
+        Robustness(noise=3)
+    code, out, err = run_script("evaluate", "--suite", "suites/ditch.json", "--planners", "step@robust", "--options",
+                                '{"step@robust": {"robustness": {"noise": "nope"}}}', "--out", tmp_path / "r.json")
+    assert code == 2 and "--options for step@robust: unknown noise profile 'nope'" in err, err
+    assert not (tmp_path / "r.json").exists()

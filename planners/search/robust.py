@@ -37,7 +37,7 @@ import numpy as np
 
 from drakeslip import SlipParams, Terrain
 from drakeslip.dynamics import I_FRICTION, I_MASS, I_STIFFNESS
-from drakeslip.noise import PROFILES, NoiseProfile, friction_factor
+from drakeslip.noise import PROFILES, NoiseProfile, friction_factor, profile
 from drakeslip.params import check_count
 from drakeslip.units import units_of
 
@@ -90,6 +90,11 @@ class Robustness:
     def __post_init__(self):
         if isinstance(self.noise, dict):
             object.__setattr__(self, "noise", NoiseProfile(**self.noise))
+        elif isinstance(self.noise, str):   # a profile by name, as --noise takes one: "realistic*3"
+            object.__setattr__(self, "noise", profile(self.noise))
+        elif not isinstance(self.noise, NoiseProfile):
+            raise ValueError(f"Robustness.noise must be a noise profile (a name such as 'realistic*3', or its "
+                             f"fields), got {self.noise!r}")
         for name in ("sigmas", "friction_loss", "landing", "edge_margin", "min_speed", "min_clearance"):
             value = getattr(self, name)
             if value is None and name in ("friction_loss", "landing", "edge_margin", "min_speed"):
