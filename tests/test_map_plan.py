@@ -4,6 +4,7 @@ malformed file is refused naming the field; verify_plan.py certifies a plan the 
 the first place a run leaves a plan that it does not, runs it on the spatial robot, and refuses what does not go with
 a map plan in one line; robustness.py draws noisy hoppers for it, repeatably, on the SLIP and on the robot."""
 import json
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -17,7 +18,8 @@ from planners.formats.map_plan import MAP_PLAN_FORMAT, MapPlanRecord, load_map_p
 from planners.formats.map_suite import MAP_SUITE_FORMAT, map_digest, map_suite_from_dict
 from planners.registry import make
 from planners.spatial_loop import perception_window
-from verification.map_plan_check import check_map_plan, edge_distance
+from planners.search.spatial_problem import goal_reach
+from verification.map_plan_check import check_map_plan, compare, edge_distance
 from verification.map_robustness import map_success_probability
 
 GAP = (2.0, 2.3)   # [m] along x: the hole band across the map
@@ -125,6 +127,18 @@ def test_a_run_that_leaves_the_plan_is_the_counterexample(saved):
                              "apexes": record.apexes[:1]})
     verdict = check_map_plan(short, "footholds", 0.01)
     assert not verdict.ok and (verdict.kind, verdict.hop) == ("target", 0)
+
+
+def test_the_target_is_reached_as_the_planners_goal_test_asks():
+    """The last hop's way runs from the foothold before it (the body's apex only for a first hop), as the search's
+    goal test has it: here it passes the goal, while the way from the apex before would pass 0.8 m from it."""
+    record = SimpleNamespace(footholds=np.array([[4.0, 0.0, 0.0], [6.0, 0.0, 0.0]]), apexes=np.full((2, 5), np.nan),
+                             apex=(0.0, 0.0, 0.8, 1.5, 0.0), target=(5.0, 0.0), reach=goal_reach((5.0, 0.0), 0.5))
+    touchdowns, apexes = [(4.0, 0.0, 0.0), (6.0, 0.0, 0.0)], [(4.5, 2.0, 0.8, 1.0, -1.0), (6.5, 0.0, 0.8, 1.0, 0.0)]
+    assert compare(record, "footholds", 0.01, "drake", touchdowns, apexes, None).ok
+    short = SimpleNamespace(**{**record.__dict__, "target": (7.0, 0.0), "reach": goal_reach((7.0, 0.0), 0.5)})
+    verdict = compare(short, "footholds", 0.01, "drake", touchdowns, apexes, None)
+    assert not verdict.ok and (verdict.kind, verdict.hop) == ("target", 1)
 
 
 def test_edge_distance_is_to_the_nearest_cell_of_another_height():

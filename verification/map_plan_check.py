@@ -186,7 +186,7 @@ def compare(record: MapPlanRecord, mode: str, tolerance: float, backend: str, to
     last = len(record.footholds) - 1
     if len(touchdowns) <= last:
         return counterexample("failure", len(touchdowns), None, None, "the run ended before the plan's last hop")
-    before = apexes[last - 1][:2] if last else record.apex[:2]
+    before = touchdowns[last - 1][:2] if last else record.apex[:2]   # the way starts where the planner's does
     if not reaches(before[0], before[1], touchdowns[last][0], touchdowns[last][1], record.reach):
         return counterexample("target", last, tuple(record.target), touchdowns[last][:2])
     return MapPlanCheck(ok=True, deviation=tuple(worst), **base)
