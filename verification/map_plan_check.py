@@ -28,6 +28,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drakeslip.hybrid_hopper import Mode
+from drakeslip.jobs.runner import finite
 from drakeslip.spatial import dynamics as dyn
 from drakeslip.spatial.controller import leg_angles_for
 from drakeslip.spatial.heightmap import HeightMap
@@ -74,7 +75,7 @@ class MapPlanCheck:
         """The counterexample in one line (empty for a certificate)."""
         if self.ok:
             return ""
-        return (f"hop {self.hop}, {self.kind}: planned {shown(self.planned)}, actual {shown(self.actual)}"
+        return (f"hop {self.hop}, {self.kind}: planned {as_text(self.planned)}, actual {as_text(self.actual)}"
                 f"{f' ({self.what})' if self.what else ''}")
 
     def format(self) -> str:
@@ -90,13 +91,13 @@ class MapPlanCheck:
         return "\n".join(lines)
 
     def to_dict(self) -> dict:
-        return {"verdict": "certified" if self.ok else "counterexample", "backend": self.backend, "mode": self.mode,
-                "tolerance": self.tolerance, "kind": self.kind, "hop": self.hop, "planned": plain(self.planned),
-                "actual": plain(self.actual), "what": self.what, "footholds": plain(self.footholds),
-                "apexes": plain(self.apexes), "deviation": list(self.deviation),
-                "margins": None if self.margins is None else {k: {"value": finite(v), "hop": h}
-                                                              for k, (v, h) in self.margins.items()},
-                "attitude": None if self.attitude is None else list(self.attitude)}
+        return finite({"verdict": "certified" if self.ok else "counterexample", "backend": self.backend,
+                       "mode": self.mode, "tolerance": self.tolerance, "kind": self.kind, "hop": self.hop,
+                       "planned": self.planned, "actual": self.actual, "what": self.what, "footholds": self.footholds,
+                       "apexes": self.apexes, "deviation": self.deviation,
+                       "margins": None if self.margins is None else {k: {"value": v, "hop": h}
+                                                                     for k, (v, h) in self.margins.items()},
+                       "attitude": self.attitude})
 
 
 MARGIN_WORDS = {"friction": "mu - |F_t|/F_n, min over stance", "stroke": "m of spring travel left, min over stance",
@@ -240,20 +241,10 @@ def edge_distance(height_map: HeightMap, x: float, y: float, within: float) -> f
     return float(np.min(np.hypot(dx, dy)))
 
 
-def shown(value) -> str:
+def as_text(value) -> str:
+    """A planned or actual value of a counterexample as its line shows it."""
     if value is None:
         return "-"
     if isinstance(value, tuple):
         return "(" + ", ".join(f"{v:.3f}" for v in value) + ")"
     return str(value)
-
-
-def plain(value):
-    """Tuples and arrays as lists of floats, for JSON."""
-    if isinstance(value, (tuple, list, np.ndarray)):
-        return [plain(v) for v in value]
-    return float(value) if isinstance(value, (float, np.floating)) else value
-
-
-def finite(v: float):
-    return v if math.isfinite(v) else None

@@ -75,7 +75,9 @@ def run_draws(record: MapPlanRecord, draws: list, hops: int, backend: str):
     failures, failed = np.zeros(len(draws), dtype=np.int64), np.full(len(draws), -1)
     for i, d in enumerate(draws):
         targets = [(x, y, sensed_height(d.sensed, x, y, z)) for x, y, z in record.footholds[:hops]]
-        if backend == "multibody":
+        if d.start[2] <= record.height_map.height_at(d.start[0], d.start[1]):
+            code, hop = int(FailureMode.TRIP), 0   # a start below the ground: its foot is too
+        elif backend == "multibody":
             code, hop = on_robot(record, d, targets)
         else:
             code, hop = on_slip(record, d, targets, backend)
@@ -102,10 +104,8 @@ def told_angles(record: MapPlanRecord, d: Draw, apex, k: int, target):
 
 
 def on_slip(record: MapPlanRecord, d: Draw, targets: list, backend: str) -> tuple:
-    """(FailureMode code, failed hop) of draw ``d`` on the spatial SLIP's fast step map or Drake; a hop the leg cannot
-    aim is a TRIP."""
-    if d.start[2] <= record.height_map.height_at(d.start[0], d.start[1]):
-        return int(FailureMode.TRIP), 0   # a start below the ground: its foot is too
+    """(FailureMode code, failed hop) of draw ``d`` (a start above the ground) on the spatial SLIP's fast step map or
+    Drake; a hop the leg cannot aim is a TRIP."""
     if backend == "drake":
         aimed = []
 
@@ -132,11 +132,10 @@ def on_slip(record: MapPlanRecord, d: Draw, targets: list, backend: str) -> tupl
 
 
 def on_robot(record: MapPlanRecord, d: Draw, targets: list) -> tuple:
-    """(FailureMode code, failed hop) of draw ``d`` on the spatial robot built for its hopper."""
+    """(FailureMode code, failed hop) of draw ``d`` (a start above the ground) on the spatial robot built for its
+    hopper."""
     from drakeslip.spatial.multibody.gait import execute
     from drakeslip.spatial.multibody.robot import SpatialRobotParams
 
-    if d.start[2] <= record.height_map.height_at(d.start[0], d.start[1]):
-        return int(FailureMode.TRIP), 0
     log = execute(tuple(d.start), record.height_map, targets, SpatialRobotParams.for_hopper(d.params))
     return (0, -1) if log.failure is None else (int(log.failure.mode), len(log.apexes))

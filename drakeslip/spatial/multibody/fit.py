@@ -114,12 +114,14 @@ def save_fit(path, factors: dict, report: dict) -> None:
 def fitted_template(hopper: SlipParams, path=FIT_FILE) -> SlipParams:
     """The template fitted to the spatial robot of ``hopper`` (``fitted`` with the factors in ``path``); ValueError
     naming the file where it is not a fit."""
+    refusal = ValueError(f"{path} is not a spatial template fit ({FIT_FORMAT}: examples/fit_template.py --robot "
+                         f"spatial writes one)")
     try:
         document = json.loads(Path(path).read_text())
-        assert document["format"] == FIT_FORMAT
         factors = {name: float(document["factors"][name]) for name in ("leg_length", "stiffness")}
-        assert all(math.isfinite(v) and 0 < v < 10 for v in factors.values())
-    except (OSError, ValueError, KeyError, TypeError, AssertionError):
-        raise ValueError(f"{path} is not a spatial template fit ({FIT_FORMAT}: examples/fit_template.py --robot "
-                         f"spatial writes one)") from None
+        fmt = document["format"]
+    except (OSError, ValueError, KeyError, TypeError):
+        raise refusal from None
+    if fmt != FIT_FORMAT or not all(math.isfinite(v) and 0 < v < 10 for v in factors.values()):
+        raise refusal
     return fitted(hopper, factors)
