@@ -85,6 +85,11 @@ def terrain_or_family(*families: str):
 
         if text in families:
             return text
+        from drakeslip.spatial.heightmap import MAP_SUFFIXES
+
+        if Path(text).suffix.lower() in MAP_SUFFIXES:   # a height map: the scripts that take one say so first
+            raise argparse.ArgumentTypeError(f"{text!r} is a height map file; this --terrain takes a terrain profile "
+                                             f"(a map's case is planned from a map suite: make_suites.py)")
         if not Path(text).is_file():
             if not families:
                 raise argparse.ArgumentTypeError(f"no such terrain file: {text!r}")

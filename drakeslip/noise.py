@@ -57,11 +57,15 @@ class NoiseProfile:
         object.__setattr__(self, "apex", tuple(check_number(v, "NoiseProfile.apex") for v in apex))
         for name in ("leg_angle", "stiffness", "mass", "friction", "heights", "edges"):
             object.__setattr__(self, name, check_number(getattr(self, name), f"NoiseProfile.{name}"))
-        values = (*self.apex, self.leg_angle, self.stiffness, self.mass, self.friction, self.heights, self.edges)
-        if min(values) < 0:
-            raise ValueError(f"noise sizes must not be negative, got {self}")
+        sizes = {**{f"apex[{i}]": v for i, v in enumerate(self.apex)},
+                 **{name: getattr(self, name) for name in ("leg_angle", "stiffness", "mass", "friction", "heights",
+                                                           "edges")}}
+        negative = [f"{name} {value:g}" for name, value in sizes.items() if value < 0]
+        if negative:
+            raise ValueError(f"noise sizes must not be negative, got {', '.join(negative)}")
         if max(self.stiffness, self.mass) >= 1:
-            raise ValueError(f"relative stiffness and mass errors must be below 1, got {self}")
+            raise ValueError(f"relative stiffness and mass errors must be below 1, got stiffness {self.stiffness:g} "
+                             f"and mass {self.mass:g}")
 
     @property
     def silent(self) -> bool:
@@ -151,7 +155,10 @@ def profile(spec: str) -> NoiseProfile:
         raise ValueError(f"noise scale in {spec!r} must be a number") from None
     if not (k >= 0 and k == k and k != float("inf")):
         raise ValueError(f"noise scale in {spec!r} must be a finite number >= 0")
-    return PROFILES[name].scaled(k)
+    try:
+        return PROFILES[name].scaled(k)
+    except ValueError as error:   # a scale that makes a relative error 100 % or more
+        raise ValueError(f"noise {spec!r}: {error}") from None
 
 
 def scale_of(noise: NoiseProfile, named: NoiseProfile) -> float | None:

@@ -27,7 +27,7 @@ is printed, with or without a noise profile (its 3D form, drakeslip/spatial/nois
 --backend multibody runs each map case on the spatial robot (drakeslip/spatial/multibody, any hopper's: one Diagram
 per case with the map loop as a planner system, planners/spatial_robot_loop.py), the planners planning for the
 hopper's own SLIP, or with --template for a SLIP fitted to the spatial robot (examples/fit_template.py --robot
-spatial); --no-pump is refused on maps, as are planners that plan on profiles only:
+spatial); --no-pump and --mlp-only are refused on maps, as are planners that plan on profiles only:
 
     python3 examples/evaluate.py --suite out/maps/gaps-7000.json --planners step --backend fast --jobs 2 \
         --out out/gaps.json
@@ -128,6 +128,8 @@ def loop_configs(ap: cli.ArgumentParser, args, labels: list[str], maps: bool) ->
             check_window(args.map_filter, "map_filter")
         except ValueError as error:
             ap.error(f"--map-filter: {error}")
+        if args.noise.silent:   # the robot filters the map it senses; without noise it sees the map itself
+            ap.error(f"--map-filter {args.map_filter} filters the map a noisy robot senses: give --noise")
     if args.backend == "multibody" and not maps:   # the planners plan for the template fitted to the robot
         from drakeslip.hopper_file import load_hopper
         from drakeslip.multibody.fit import fitted_template
@@ -157,6 +159,9 @@ def on_maps(ap: cli.ArgumentParser, args) -> bool:
     if maps and args.no_pump:
         ap.error(f"--no-pump: not applied on height maps ({args.suite} is a map suite: the spatial robot has no "
                  "energy pump)")
+    if maps and args.mlp_only:
+        ap.error(f"--mlp-only: not applied on height maps ({args.suite} is a map suite: the spatial controller aims "
+                 "by Newton's method and has no MLP)")
     return maps
 
 

@@ -77,7 +77,8 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
     """(the suite, its hopper, the planner, the case to plan): a suite's case, or the one case of --terrain; or one
     line and exit status 2 for a bad suite, terrain, hopper, planner label or case."""
     from drakeslip.jobs.files import read_json
-    from planners.formats.map_suite import is_map_suite, load_map_suite
+    from planners.base import Planner
+    from planners.formats.map_suite import MapSuite, is_map_suite, load_map_suite
     from planners.formats.suite import load_suite
     from planners.formats.suite_draw import hopper_for_suite, one_case
     from planners.registry import hopper_specs, make_planners
@@ -94,6 +95,8 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
                              goal_x=args.goal, start_x=args.start_x)
             hopper, args.case = hopper_for_suite(suite, args.hopper), "0"
         planner = make_planners(hopper_specs({check_label(args.planner): options}, hopper))[args.planner]
+        if isinstance(suite, MapSuite) and type(planner).plan_on_map is Planner.plan_on_map:
+            raise ValueError(f"--planner {args.planner} plans on profiles only, not on the height maps of {args.suite}")
     except (OSError, ValueError) as error:
         ap.error(str(error))
     ids = [c.id for c in suite.cases]

@@ -43,6 +43,15 @@ from drakeslip.spatial.families import HEIGHT_MAP_FAMILIES
 from drakeslip.terrain import TERRAIN_FAMILIES
 from planners.formats.suite import COMMITTED_SEEDS, PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS
 
+# The most terrains (or height maps) a drawn suite may have: terrain i of the k-th planar family uses seed
+# SEED + 1000 k + i, so a 1001st would take the next family's first seed; a map suite holds all its maps in memory
+# (about a megabyte each: 1000 take 4 s and 1 GB to draw). The paper's suites have 15, the docs' at most 15.
+MAX_TERRAINS = 1000
+# The most starts per terrain (--speeds x --heights): a suite holds terrains x starts cases, so MAX_TERRAINS x this
+# is 100,000 cases, about 20 s and 1.2 GB to draw; the paper's suites have 10 (5 speeds x 2 heights), the docs' at
+# most 10. Without a bound two lists of thousands of numbers would ask for billions of cases.
+MAX_STARTS = 100
+
 
 def main(argv=None) -> int:
     ap = cli.ArgumentParser(__doc__)
@@ -54,10 +63,12 @@ def main(argv=None) -> int:
                          "none: the committed suites' seeds, " + ", ".join(f"{f} {s}" for f, s in
                                                                            COMMITTED_SEEDS.items()))
     ap.add_argument("--terrains", type=count_or_folder, default=PAPER_TERRAINS,
-                    help="terrains (or height maps) per suite, or a folder of terrain files making one suite")
+                    help=f"terrains (or height maps) per suite, 1 to {MAX_TERRAINS}, or a folder of terrain files "
+                         "making one suite")
     cli_physics.add_hopper_argument(ap)
     ap.add_argument("--speeds", type=cli.numbers(None, cli_physics.physical(SPEED, positive=True)), default=None,
-                    help=f"apex speeds of the starts, m/s, comma-separated (default: {PAPER_SPEEDS})")
+                    help=f"apex speeds of the starts, m/s, comma-separated (default: {PAPER_SPEEDS}); with --heights "
+                         f"at most {MAX_STARTS} starts")
     ap.add_argument("--heights", type=cli.numbers(None, cli_physics.physical(POSITION, positive=True)), default=None,
                     help=f"apex heights of the starts, m, comma-separated (default: {PAPER_HEIGHTS})")
     ap.add_argument("--start-x", type=cli_physics.physical(POSITION), default=None,
@@ -66,14 +77,14 @@ def main(argv=None) -> int:
                     help="with --terrains DIR: goal x [m] (default: 10, the course made the hopper's)")
     ap.add_argument("--out", type=cli.output_folder, default="suites", help="folder the suite files are written to")
     args = ap.parse_args(argv)
+    starts = (len(args.speeds or PAPER_SPEEDS), len(args.heights or PAPER_HEIGHTS))
+    if starts[0] * starts[1] > MAX_STARTS:
+        ap.error(f"--speeds x --heights: {starts[0]} x {starts[1]} = {starts[0] * starts[1]} starts per terrain, more "
+                 f"than the {MAX_STARTS} a suite may have")
     if not isinstance(args.terrains, Path):
         if args.start_x is not None or args.goal is not None:
             ap.error("--start-x and --goal go with --terrains DIR (a drawn suite's are the paper's, made the hopper's)")
         return draw(ap, args, argv)
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
 
     from planners.formats.suite import save_suite
     from planners.formats.suite_draw import suite_from_terrains
@@ -84,6 +95,7 @@ def main(argv=None) -> int:
         ap.error(str(error))
     path = args.out / f"{suite.name}.json"
     ap.check_outputs(args, [("--out", path)])
+    make_folder(ap, args.out)
     cli.announce(argv)
     save_suite(suite, path)
     print(f"wrote {path}: {len(suite.cases)} cases, start x = {suite.cases[0].apex.x:g}, goal x = {suite.goal_x:g}")
@@ -91,9 +103,9 @@ def main(argv=None) -> int:
 
 
 def count_or_folder(text: str):
-    """An argument type: a positive count (terrains per suite) or a folder of terrain files."""
+    """An argument type: a count of terrains per suite (1 to MAX_TERRAINS) or a folder of terrain files."""
     if text.isdigit():
-        return cli.positive_int(text)
+        return cli.integer(1, MAX_TERRAINS)(text)
     if not Path(text).is_dir():
         raise argparse.ArgumentTypeError(f"{text!r} is neither a count of terrains nor a folder of terrain files")
     return Path(text)
@@ -115,10 +127,6 @@ def draw(ap, args, argv) -> int:
              if family in TERRAIN_FAMILIES else args.seed for family in args.families}
     names = {family: family if args.seed is None else f"{family}-{seed}" for family, seed in seeds.items()}
     ap.check_outputs(args, [("--out", args.out / f"{name}.json") for name in names.values()])
-    try:
-        args.out.mkdir(parents=True, exist_ok=True)
-    except OSError as error:
-        ap.error(f"--out: cannot make the folder {str(args.out)!r}: {error.strerror}")
 
     from planners.formats.map_suite import make_map_suite, save_map_suite
     from planners.formats.suite import save_suite
@@ -131,6 +139,7 @@ def draw(ap, args, argv) -> int:
                                  name=names[family]) for family, seed in seeds.items()]
     except ValueError as error:
         ap.error(str(error))
+    make_folder(ap, args.out)
     cli.announce(argv)
     for suite, (family, seed) in zip(suites, seeds.items()):
         path = args.out / f"{suite.name}.json"
@@ -142,6 +151,15 @@ def draw(ap, args, argv) -> int:
             print(f"wrote {path}: {len(suite.cases)} cases, {family} maps of seeds {seed}..{seed + args.terrains - 1} "
                   f"at difficulty 0..{1 if args.terrains > 1 else 0}, goal ({suite.goal[0]:g}, {suite.goal[1]:g})")
     return cli.OK
+
+
+def make_folder(ap, folder: Path) -> None:
+    """Make the --out folder once every suite is drawn and checked, so a refused call leaves none behind; one line
+    and exit status 2 when it cannot be made (``cli.output_folder`` checked it could, at parsing)."""
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as error:
+        ap.error(f"--out: cannot make the folder {str(folder)!r}: {error.strerror}")
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ import sys
 from drakeslip.jobs import cli
 from drakeslip import cli_physics
 from drakeslip.jobs.files import read_json
+from planners.base import MAX_NODES
 from verification.model_check import DEFAULT_BUDGET
 
 
@@ -42,7 +43,7 @@ def arguments() -> cli.ArgumentParser:
                     help="only N cases: the first N, or N at random with --seed")
     ap.add_argument("--seed", type=cli.non_negative_int, default=None, help="draw the --cases at random with this seed")
     ap.add_argument("--ids", type=cli.names, default=None, help="comma-separated case ids (instead of --cases)")
-    ap.add_argument("--budget", type=cli.positive_int, default=DEFAULT_BUDGET.max_nodes,
+    ap.add_argument("--budget", type=cli.integer(1, MAX_NODES), default=DEFAULT_BUDGET.max_nodes,
                     help="node expansions per case, all passes")
     ap.add_argument("--seconds", type=cli.positive, default=DEFAULT_BUDGET.max_time_s, help="search seconds per case")
     ap.add_argument("--no-refine", action="store_true",

@@ -11,7 +11,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.bounds import HORIZON, POSITION
-from drakeslip.params import check_count, check_number
+from drakeslip.params import check_count, check_number, shown
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
@@ -138,6 +138,24 @@ class Plan:
                 **({"safe_footholds": self.safe_hops.footholds.tolist()} if self.safe_hops is not None else {})}
 
 
+# The most node expansions a search may be given: the search sizes an array by it before it starts, and at 1-2 ms a
+# node 10 million are hours of search, far beyond any budget a plan uses (the default 1,000, the docs' 10x 10,000,
+# the model checker's 600,000 per case). A larger budget is a typo, not a search.
+MAX_NODES = 10_000_000
+# The most step-map calls: an expansion calls the step map once per leg angle of its fan (41 on the nominal grid,
+# ``planners.search.tree.REACH_ANGLES``), so MAX_NODES expansions make fewer than this; the compiled search holds
+# the limit in a 64-bit integer, which a larger Python int overflows.
+MAX_ODE_CALLS = 100 * MAX_NODES
+
+
+def check_limit(value, name: str, high: int, low: int = 1) -> int:
+    """``value`` as an int if it is an integer from ``low`` to ``high`` (a budget's limit); else ValueError naming
+    ``name`` and the value."""
+    if check_count(value, name, low) > high:
+        raise ValueError(f"{name} must be an integer from {low} to {high}, got {shown(value)}")
+    return int(value)
+
+
 @dataclass(frozen=True)
 class Budget:
     """Termination conditions. A search attempt stops after ``max_nodes`` node expansions or ``max_ode_calls``
@@ -151,9 +169,9 @@ class Budget:
     max_time_s: float = 60.0
 
     def __post_init__(self):
-        object.__setattr__(self, "max_nodes", check_count(self.max_nodes, "max_nodes"))
+        object.__setattr__(self, "max_nodes", check_limit(self.max_nodes, "max_nodes", MAX_NODES))
         if self.max_ode_calls is not None:
-            object.__setattr__(self, "max_ode_calls", check_count(self.max_ode_calls, "max_ode_calls"))
+            object.__setattr__(self, "max_ode_calls", check_limit(self.max_ode_calls, "max_ode_calls", MAX_ODE_CALLS))
         object.__setattr__(self, "max_time_s", check_number(self.max_time_s, "max_time_s (seconds)", positive=True))
 
 

@@ -110,9 +110,18 @@ def takes(name: str, option: str) -> bool:
     return name in _PLANNERS and option in inspect.signature(planner_class(name)).parameters
 
 
+def check_variant(label: str, options: dict | None) -> None:
+    """ValueError in one line for a ``NAME@VARIANT`` that is no preset and is given no options: it would run as the
+    plain planner under another name (most likely a preset's name mistyped)."""
+    if "@" in label and label not in PRESETS and not options:
+        raise ValueError(f"{label!r} is no preset ({', '.join(PRESETS)}) and has no options: a NAME@VARIANT other "
+                         f"than a preset takes its options from --options")
+
+
 def make(label: str, **options):
     """A planner by label with its options, e.g. ``make("angle", branching=20, seed=0)`` or ``make("lstm@paper")``."""
-    cls = planner_class(planner_name(check_label(label)))
+    check_variant(check_label(label), options)
+    cls = planner_class(planner_name(label))
     return cls(**options_for(label, options))
 
 
@@ -152,6 +161,7 @@ def make_planners(specs: dict, controller=None) -> dict:
     planners = {}
     for label, options in specs.items():
         name = planner_name(check_label(label))
+        check_variant(label, options)
         shared = {"controller": controller} if controller is not None and takes(name, "controller") else {}
         try:
             planners[label] = make(label, **shared, **(options or {}))

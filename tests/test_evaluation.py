@@ -211,12 +211,15 @@ def test_two_settings_of_one_planner_run_side_by_side(tmp_path):
 
 def test_defaults_are_the_best_settings_and_the_papers_are_presets():
     built = make_planners({"lstm": {}, "lstm-guided": {}, "lstm@paper": {}, "lstm-guided@paper": {},
-                           "lstm@other": {}})
+                           "lstm@other": {"top_k": 3}})
     assert built["lstm"].ranker is not None and built["lstm"].max_steps == 1
     assert built["lstm-guided"].lazy and built["lstm-guided"].conditioning == "apex"
     assert built["lstm@paper"].ranker is None and built["lstm@paper"].max_steps == 12
     assert not built["lstm-guided@paper"].lazy and built["lstm-guided@paper"].conditioning == "path"
-    assert built["lstm@other"].ranker is not None  # not a preset: the planner's defaults
+    assert built["lstm@other"].ranker is not None  # not a preset: the planner's defaults and its own options
+    # a variant that is no preset and has no options would run the plain planner under another name: a typo
+    with pytest.raises(ValueError, match=r"'lstm@papr' is no preset .* takes its options from --options"):
+        make_planners({"lstm@papr": {}})
     # options given for a preset label update the preset
     updated = make_planners({"lstm@paper": {"max_steps": 2}})["lstm@paper"]
     assert updated.max_steps == 2 and updated.ranker is None

@@ -14,7 +14,7 @@ from drakeslip.noise import PROFILES
 from drakeslip.params import SlipParams
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.spatial.noise import apex_errors3d
-from planners.formats.map_plan import MAP_PLAN_FORMAT, MapPlanRecord, load_map_plan, save_map_plan
+from planners.formats.map_plan import MAP_PLAN_FORMAT, MapPlanRecord, is_map_plan, load_map_plan, save_map_plan
 from planners.formats.map_suite import MAP_SUITE_FORMAT, map_digest, map_suite_from_dict
 from planners.registry import make
 from planners.spatial_loop import perception_window
@@ -96,10 +96,20 @@ def into_the_gap(d):
     (lambda d: d["apex"].update(z=-1.0), r"the start apex"),
     (lambda d: d["map"].update(sha256="a" * 64), r"map\.sha256: the height map file .*m\.npz has digest"),
     (lambda d: d["hopper"]["params"].update(mass=9.0), r"hopper"),
+    (lambda d: d.update(format="drakeslip-map-plan/9"), r"format must be 'drakeslip-map-plan/1', got '.*/9'"),
+    (lambda d: d["apex"].update(x="a"), r"^plan file \S+: apex\.x must be a finite number"),   # the file named once
+    (lambda d: d["target"].update(y="a"), r"^plan file \S+: target\.y must be a finite number"),
 ])
 def test_a_malformed_map_plan_is_refused_naming_the_field(saved, tmp_path, change, message):
     with pytest.raises(ValueError, match=message):
         load_map_plan(edited(saved[0], change, tmp_path))
+
+
+def test_another_version_of_the_map_plan_format_is_refused_as_a_map_plan():
+    """A map plan of a version this code does not read goes to the map plan's reader, which names the version it
+    reads, not to the profile plan's."""
+    assert is_map_plan({"format": "drakeslip-map-plan/9"}) and is_map_plan({"format": MAP_PLAN_FORMAT})
+    assert not is_map_plan({"format": "drakeslip-plan/2"}) and not is_map_plan({"format": None})
 
 
 def test_the_slip_flies_the_plan_as_written_with_its_margins(saved):
@@ -184,9 +194,21 @@ def test_make_plan_writes_a_map_plan_from_a_map_suite(run_script, folder, tmp_pa
     code, text, err = run_script("make_plan", "--suite", folder / "suite.json", "--case", "one", "--planner", "step",
                                  "--out", out, "--plot", png)
     assert code == 0, err
-    assert f"step on one: " in text and f"wrote {out}" in text and png.stat().st_size > 10_000
+    assert "step on one: " in text and f"wrote {out}" in text and png.stat().st_size > 10_000
     record = load_map_plan(out)
     assert record.footholds[-1][0] > GAP[1] and record.hopper.name == "paper"
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--suite", "{folder}/suite.json", "--case", "one", "--planner", "angle"],
+     "--planner angle plans on profiles only, not on the height maps of"),
+    (["--terrain", "{folder}/maps/m.npz", "--planner", "step"], "is a height map file; this --terrain takes a terrain "
+                                                                  "profile"),
+])
+def test_make_plan_refuses_what_does_not_plan_a_map_in_one_line(run_script, folder, tmp_path, args, message):
+    code, text, err = run_script("make_plan", *[a.format(folder=folder) for a in args], "--out", tmp_path / "p.json")
+    assert code == 2 and message in err and len(err.splitlines()) == 1 and not text, err
+    assert not (tmp_path / "p.json").exists()
 
 
 def test_noiseless_draws_fly_a_certified_plan_and_a_seed_repeats_its_draws(saved):

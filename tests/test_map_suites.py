@@ -173,11 +173,19 @@ def test_evaluate_runs_a_users_map_file(run_script, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--backend", "multibody", "--no-pump"], "--no-pump: not applied on height maps"),
+    (["--backend", "fast", "--mlp-only"], "--mlp-only: not applied on height maps"),
+    (["--backend", "fast", "--map-filter", "5"], "--map-filter 5 filters the map a noisy robot senses: give --noise"),
     (["--template", "{suite}"], "--template needs --backend multibody"),
     (["--backend", "multibody", "--template", "{suite}"], "s.json is not a spatial template fit"),
     (["--backend", "fast", "--planners", "angle"], "planners angle plan on profiles only, not on height maps"),
     (["--backend", "fast", "--planners", "step@drake", "--options", '{{"step@drake": {{"step_map": "drake"}}}}'],
      "step@drake: the 'step' planner plans on a height map without step_map='drake'"),
+    (["--backend", "fast", "--planners", "lstm-guided@drake", "--options",
+      '{{"lstm-guided@drake": {{"step_map": "drake"}}}}'],
+     "lstm-guided@drake: the 'lstm-guided' planner plans on a height map without step_map='drake'"),
+    (["--backend", "fast", "--planners", "step@robust", "--options",
+      '{{"step@robust": {{"robustness": {{"depth": 4}}}}}}'],
+     "step@robust: robustness depth=4 is a planar search setting"),
 ])
 def test_evaluate_refuses_what_the_map_loop_does_not_run(run_script, tmp_path, small, args, message):
     save_map_suite(small, tmp_path / "s.json")

@@ -217,7 +217,8 @@ def test_two_processes_give_the_verdicts_of_one():
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--budget", "0"], "--budget: must be an integer in .1, inf., got '0'"),
+    (["--budget", "0"], "--budget: must be an integer in .1, 10000000., got '0'"),
+    (["--budget", "20000000"], "--budget: must be an integer in .1, 10000000., got '20000000'"),
     (["--seconds", "nan"], "--seconds: must be a finite number > 0.0, got 'nan'"),
     (["--ids", "nope"], "unknown case id"),
     (["--cases", "-3"], "--cases: must be an integer in .1, inf., got '-3'"),

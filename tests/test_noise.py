@@ -31,10 +31,12 @@ def test_profiles_scale_and_name_their_bad_values():
     assert profile("realistic*2").heights == pytest.approx(0.02)
     assert NoiseProfile(apex=(np.float32(0.01), 0, 0)).apex[0] == pytest.approx(0.01)
     for spec, message in (("gaussian", "unknown noise profile 'gaussian'"), ("realistic*x", "must be a number"),
-                          ("realistic*-1", "finite number >= 0"), ("realistic*inf", "finite number >= 0")):
+                          ("realistic*-1", "finite number >= 0"), ("realistic*inf", "finite number >= 0"),
+                          ("realistic*1e9", r"noise 'realistic\*1e9': .* got stiffness 2e\+07 and mass 2e\+07$")):
         with pytest.raises(ValueError, match=message):
             profile(spec)
-    for kwargs, message in ((dict(leg_angle=-0.1), "must not be negative"), (dict(apex=(0, 0)), "apex must be"),
+    for kwargs, message in ((dict(leg_angle=-0.1), "must not be negative, got leg_angle -0.1$"),
+                            (dict(apex=(0, 0)), "apex must be"),
                             (dict(stiffness=1.0), "below 1"), (dict(heights=float("nan")), "heights"),
                             (dict(mass=True), "mass")):
         with pytest.raises(ValueError, match=message):

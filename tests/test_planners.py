@@ -7,6 +7,7 @@ import pytest
 import planners
 from drakeslip import ApexState, SlipParams, Terrain, ditch_world, step_batch
 from drakeslip.terrain import DITCH_HEIGHT
+from planners.base import MAX_NODES
 from planners.closed_loop import ClosedLoopConfig, run_case
 from planners.formats.suite import Case
 from planners.registry import labels, make_planners, planner_name
@@ -78,7 +79,7 @@ def test_node_budget_is_respected(controller, name):
 
 @pytest.mark.parametrize("name", ["angle", "step"])
 def test_time_budget_is_respected(controller, name):
-    planner = planners.make(name, max_time_s=0.02, max_nodes=10**9, min_speed=0.0,
+    planner = planners.make(name, max_time_s=0.02, max_nodes=MAX_NODES, min_speed=0.0,
                             **({"controller": controller} if name == "step" else {}))
     plan = planner.plan((0.0, 1.0, 2.0), Terrain.flat(length=200.0), 150.0, PARAMS)  # too far for 20 ms
     assert plan.time_s < 0.02 + 0.05

@@ -327,3 +327,45 @@ def test_a_guided_node_widens_to_its_next_cells_when_the_search_comes_back_to_it
     widened = {tuple(f) for f in np.vstack([first.footholds, second.footholds])}
     assert len(widened) == len(first.footholds) + len(second.footholds)
     assert widened == {tuple(f) for f in together.footholds}
+
+
+class Searched(Exception):
+    """Raised in place of the guided search, carrying the settings it was given."""
+
+
+@pytest.mark.parametrize("label, options, weights, sequences, fallback", [
+    ("lstm-guided", {}, (1.0, 1.0, 2.0), 1, None),
+    ("lstm-guided", {"cost_weights": (1.0, 0.0, 2.0), "n_sequences": 2, "fallback_spacing": (0.01,)},
+     (1.0, 0.0, 2.0), 2, (0.01,)),
+    ("lstm", {}, (1.0, 1.0, 2.0), 1, None)])
+def test_the_guided_search_on_a_map_takes_the_planner_s_weights_and_sequences(monkeypatch, label, options, weights,
+                                                                            sequences, fallback):
+    """The map search's settings carry the planner's cost weights, sequence count and fallback spacings (the
+    defaults for the LSTM planner, which has none of them)."""
+    import planners.learned.spatial_guided as guided
+    from planners.search.tree import CostWeights
+
+    def search(problem, settings, *rest):
+        raise Searched(settings)
+
+    monkeypatch.setattr(guided, "plan_guided", search)
+    with pytest.raises(Searched) as searched:
+        planners.make(label, **options).plan(START, HeightMap.flat(), (6.0, 0.0), P)
+    settings = searched.value.args[0]
+    assert settings.cost_weights == CostWeights(*weights) and settings.n_sequences == sequences
+    assert settings.fallback_spacing == fallback
+
+
+@pytest.mark.parametrize("label", ["step@robust", "lstm-guided@robust"])
+def test_a_planar_robustness_setting_is_refused_on_a_map(label):
+    """On a map the particles fly every hop at the robustness's sigmas, then at 1 sigma: a planar search's field
+    (``depth`` here) would be ignored, so it is refused in one line naming it; the map search's own fields plan."""
+    with pytest.raises(ValueError, match=r"depth=4 is a planar search setting") as error:
+        planners.make(label, robustness={"depth": 4}).plan(START, HeightMap.flat(), (6.0, 0.0), P)
+    message = str(error.value)
+    assert "\n" not in message and "1 sigma" in message and "noise, sigmas, friction_loss" in message
+    with pytest.raises(ValueError, match=r"lookahead=0, max_nodes=5 are planar"):
+        planners.make(label, robustness={"lookahead": 0, "max_nodes": 5}).plan(START, HeightMap.flat(), (6.0, 0.0), P)
+    for robustness in ({}, {"noise": "realistic*2", "sigmas": 1.5, "friction_loss": 0.02}):
+        plan = planners.make(label, robustness=robustness).plan(START, HeightMap.flat(), (6.0, 0.0), P)
+        assert plan.success and "robust" in plan.message, plan.message

@@ -23,9 +23,8 @@ from pathlib import Path
 from drakeslip.bounds import POSITION
 from drakeslip.jobs import cli
 from drakeslip.spatial.families import HEIGHT_MAP_FAMILIES
-from drakeslip.spatial.heightmap import load_height_map
+from drakeslip.spatial.heightmap import MAP_SUFFIXES, load_height_map
 
-MAP_SUFFIXES = (".npz", ".asc")   # height-map files; every other terrain file is a profile
 DEFAULT_DIFFICULTY = 0.5          # of a family's draw when --difficulty is left out: the middle of [0, 1]
 MAP_PLANNER = "step"              # the planners' default on maps: the robust preset plans on profiles only
 

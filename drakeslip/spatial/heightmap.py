@@ -9,13 +9,14 @@ A file is a NumPy ``.npz`` with ``heights`` (ny x nx, metres, NaN = hole), ``cel
 or an ESRI ASCII grid (``.asc``: ``ncols``, ``nrows``, ``xllcorner``, ``yllcorner``, ``cellsize``,
 ``NODATA_value`` and rows from north to south), the format GIS tools export a DEM patch in. Everything is checked
 before any work: the shape, the cell (``drakeslip.bounds.CELL``), the origin (TERRAIN_START), every height
-(POSITION), the number of cells (HEIGHT_MAP_CELLS) and a file's size (HEIGHT_MAP_FILE_BYTES); a bad value is a
-ValueError of one line naming it.
+(POSITION), the number of cells (HEIGHT_MAP_CELLS; a ``.npz``'s as its headers declare it, before any array is
+read) and a file's size (HEIGHT_MAP_FILE_BYTES); a bad value is a ValueError of one line naming it.
 """
 from __future__ import annotations
 
 import math
 import zipfile
+import zlib
 from collections import namedtuple
 from pathlib import Path
 
@@ -190,6 +191,9 @@ def check_origin(origin) -> tuple:
             check_number(y0, "height map origin y0", bound=TERRAIN_START))
 
 
+MAP_SUFFIXES = (".npz", ".asc")   # height-map files (``load_height_map``); every other terrain file is a profile
+
+
 def load_height_map(path) -> HeightMap:
     """The height map in ``path``: ``.npz`` (heights, cell, origin) or an ESRI ASCII grid ``.asc`` (module doc)."""
     path = Path(path)
@@ -210,33 +214,62 @@ def load_height_map(path) -> HeightMap:
         raise ValueError(message if message.startswith(where) else f"{where}: {message}") from None
 
 
+NPZ_KEYS = ("heights", "cell", "origin")
+NPY_HEADER_READERS = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+
+
 def read_npz(path: Path, where: str) -> HeightMap:
-    """The map of an ``.npz``; its arrays' sizes are checked from the archive's directory before they are
-    decompressed (64 MB of zeros may hold gigabytes)."""
+    """The map of an ``.npz``; the shape and dtype each array's ``.npy`` header declares are checked before any
+    array is read, as loading allocates the declared shape whatever the file holds (a header of a few bytes may
+    declare 10^10 cells, 64 MB of compressed zeros may decompress to gigabytes)."""
     try:
         with zipfile.ZipFile(path) as archive:
-            sizes = {info.filename.removesuffix(".npy"): info.file_size for info in archive.infolist()}
-    except (OSError, zipfile.BadZipFile) as error:
+            members = set(archive.namelist())
+            # np.load reads the member named as the key before the one named key.npy
+            names = {key: key if key in members else f"{key}.npy" for key in NPZ_KEYS}
+            headers = {key: npy_header(archive, name) for key, name in names.items() if name in members}
+    # RuntimeError: an encrypted member; its NotImplementedError: a compression zipfile does not read
+    except (OSError, EOFError, ValueError, RuntimeError, zipfile.BadZipFile, zlib.error) as error:
         raise ValueError(f"{where} is not a readable .npz file ({error})") from None
-    missing = [key for key in ("heights", "cell", "origin") if key not in sizes]
+    missing = [key for key in NPZ_KEYS if key not in headers]
     if missing:
         raise ValueError(f"{where} lacks {', '.join(missing)} (it needs heights, cell and origin)")
-    if sizes["heights"] > 8 * HEIGHT_MAP_CELLS + 4096 or max(sizes["cell"], sizes["origin"]) > 4096:
-        raise ValueError(f"{where}: its heights hold {sizes['heights']} bytes, more than the {HEIGHT_MAP_CELLS} cells "
-                         "a map may hold (HEIGHT_MAP_CELLS of drakeslip/bounds.py)")
+    check_npz_headers(headers, where)
     try:
         with np.load(path, allow_pickle=False) as data:
             heights, cell, origin = data["heights"], data["cell"], data["origin"]
-    except (OSError, EOFError, ValueError) as error:
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile, zlib.error) as error:
         raise ValueError(f"{where} is not a readable .npz file ({error})") from None
-    for name, array in (("heights", heights), ("cell", cell), ("origin", origin)):
-        if array.dtype.kind not in "fiu":
-            raise ValueError(f"{where}: {name} must be numbers, got dtype {array.dtype}")
-    if cell.size != 1:
-        raise ValueError(f"{where}: cell must be one number, got shape {cell.shape}")
-    if origin.shape != (2,):
-        raise ValueError(f"{where}: origin must be (x0, y0), got shape {origin.shape}")
     return HeightMap(heights, float(cell.reshape(-1)[0]), (float(origin[0]), float(origin[1])))
+
+
+def npy_header(archive: zipfile.ZipFile, member: str) -> tuple:
+    """(shape, dtype) as the ``.npy`` header of ``member`` declares them, read without the array; ValueError for a
+    member that is no ``.npy`` of a version numpy writes numbers in (3.0 is only for structured dtypes)."""
+    with archive.open(member) as stream:
+        version = np.lib.format.read_magic(stream)
+        if version not in NPY_HEADER_READERS:
+            raise ValueError(f"{member} is a .npy of version {version[0]}.{version[1]}, not 1.0 or 2.0")
+        shape, _, dtype = NPY_HEADER_READERS[version](stream)
+    return shape, dtype
+
+
+def check_npz_headers(headers: dict, where: str) -> None:
+    """A ValueError of one line naming ``where`` unless ``headers`` ({key: (shape, dtype)}) declare number arrays:
+    heights 2-D of 1 to HEIGHT_MAP_CELLS cells, cell one number and origin two."""
+    for key, (shape, dtype) in headers.items():
+        if dtype.kind not in "fiu":   # no objects (pickles), strings, booleans, complex or records
+            raise ValueError(f"{where}: {key} must be numbers, got dtype {dtype}")
+    shape = headers["heights"][0]
+    if len(shape) != 2 or min(shape) < 1:
+        raise ValueError(f"{where}: heights must be a 2-D (ny, nx) array with at least one cell, got shape {shape}")
+    if shape[0] * shape[1] > HEIGHT_MAP_CELLS:
+        raise ValueError(f"{where}: its heights declare {shape[0]} x {shape[1]} cells, more than the "
+                         f"{HEIGHT_MAP_CELLS} cells a map may hold (HEIGHT_MAP_CELLS of drakeslip/bounds.py)")
+    if math.prod(headers["cell"][0]) != 1:
+        raise ValueError(f"{where}: cell must be one number, got shape {headers['cell'][0]}")
+    if headers["origin"][0] != (2,):
+        raise ValueError(f"{where}: origin must be (x0, y0), got shape {headers['origin'][0]}")
 
 
 ASCII_KEYS = ("ncols", "nrows", "xllcorner", "yllcorner", "cellsize")

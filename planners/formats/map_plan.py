@@ -39,6 +39,7 @@ from planners.formats.suite import required_field
 from planners.search.spatial_problem import GOAL_RADIUS, WINDOW_ASIDE, goal_reach
 
 MAP_PLAN_FORMAT = "drakeslip-map-plan/1"
+MAP_PLAN_FAMILY = "drakeslip-map-plan/"
 FOOTHOLD_HEIGHT = 1e-3   # [m] a foothold's z may differ this much from the map's height under it (paper's lengths)
 
 
@@ -138,10 +139,10 @@ class MapPlanRecord:
         rows = {name: read_rows(d, name, width, source, bounds)
                 for name, width, bounds in (("footholds", 3, (POSITION,) * 3), ("leg_angles", 2, (None, None)),
                                             ("apexes", 5, (POSITION,) * 3 + (SPEED,) * 2))}
-        try:
-            return cls(planner, read_apex3d(required_field(d, "apex", source), f"{source}: apex"), height_map,
-                       map_source, params, read_point(required_field(d, "goal", source), f"{source}: goal"),
-                       read_point(required_field(d, "target", source), f"{source}: target"), rows["footholds"],
+        apex = read_apex3d(required_field(d, "apex", source), f"{source}: apex")
+        goal, target = (read_point(required_field(d, name, source), f"{source}: {name}") for name in ("goal", "target"))
+        try:   # the record's own checks (``__post_init__``), which do not know the source
+            return cls(planner, apex, height_map, map_source, params, goal, target, rows["footholds"],
                        rows["leg_angles"], rows["apexes"], hopper)
         except ValueError as exc:
             raise ValueError(f"{source}: {exc}") from exc
@@ -178,8 +179,9 @@ def save_map_plan(path, plan: Plan, case, source: dict, params: SlipParams, hopp
 
 
 def is_map_plan(document) -> bool:
-    """Whether a parsed plan document is a map plan (by its format)."""
-    return isinstance(document, dict) and document.get("format") == MAP_PLAN_FORMAT
+    """Whether a parsed plan document is a map plan (by its format's family: a version this code does not read is
+    then refused as a map plan's, naming the version it reads)."""
+    return isinstance(document, dict) and str(document.get("format", "")).startswith(MAP_PLAN_FAMILY)
 
 
 def load_map_plan(path) -> MapPlanRecord:

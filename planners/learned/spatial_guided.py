@@ -22,6 +22,7 @@ from planners.core.spatial_sampled import SpatialSampledExpansion
 from planners.search.spatial_problem import SpatialProblem, spatial_problem
 from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings,
                                           grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
+from planners.search.tree import CostWeights
 
 
 @functools.lru_cache(maxsize=4)
@@ -82,15 +83,18 @@ def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_pa
 def plan_on_map(planner, apex, height_map, goal, params, tiers, grid_fallback: bool, budget: Budget) -> Plan:
     """A learned planner's plan on a height map (module doc), timed as ``Planner.plan`` times a plan."""
     t0 = time.perf_counter()
+    if getattr(planner, "step_map", "fast") != "fast":   # the compiled core flies every hop on a map
+        raise ValueError(f"the {planner.name!r} planner plans on a height map without step_map='drake'")
     model_path = getattr(planner, "map_model", None) or SPATIAL_WEIGHTS
     try:   # loaded once a process: a plan of a few milliseconds does not read the disk
         spatial_model(str(model_path))
     except FileNotFoundError:
         raise ValueError(f"the {planner.name!r} planner's map model {model_path} does not exist") from None
     problem = spatial_problem(apex, height_map, goal, params, planner.horizon, t0, budget.max_time_s)
-    settings = SpatialStepSettings(getattr(planner, "spacing", None), None, getattr(planner, "tolerance", None),
-                                   getattr(planner, "edge_margin", None), getattr(planner, "min_speed", None),
-                                   robustness=getattr(planner, "robustness", None),
+    settings = SpatialStepSettings(getattr(planner, "spacing", None), getattr(planner, "fallback_spacing", None),
+                                   getattr(planner, "tolerance", None), getattr(planner, "edge_margin", None),
+                                   getattr(planner, "min_speed", None), getattr(planner, "cost_weights", CostWeights()),
+                                   getattr(planner, "n_sequences", 1), robustness=getattr(planner, "robustness", None),
                                    fallback_nominal=getattr(planner, "fallback_nominal", True),
                                    safe_hops=getattr(planner, "safe_hops", False))
     plan = plan_guided(problem, settings, model_path, tiers, grid_fallback, budget, planner.name)

@@ -12,7 +12,7 @@ then RELAXED_SIGMAS on the first grid, before the nominal searches (``levels``).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 
 import numpy as np
 
@@ -42,11 +42,29 @@ FRICTION_MARGIN = 0.99      # the leg stays strictly inside the friction cone
 PARTICLES = 8
 PARTICLE_SEED = 0
 RELAXED_SIGMAS = 1.0
+MAP_ROBUSTNESS = ("noise", "sigmas", "friction_loss")   # the Robustness fields the map search reads
+
+
+def check_map_robustness(robustness: Robustness | None) -> None:
+    """ValueError, in one line, naming each field of ``robustness`` other than MAP_ROBUSTNESS that differs from
+    ``Robustness()``'s: those are the planar robust search's (``planners.search.robust``), and on a map they would be
+    ignored without a word."""
+    if robustness is None:
+        return
+    default = Robustness()
+    changed = [f"{f.name}={getattr(robustness, f.name)!r}" for f in fields(Robustness)
+               if f.name not in MAP_ROBUSTNESS and getattr(robustness, f.name) != getattr(default, f.name)]
+    if changed:
+        kind = "is a planar search setting" if len(changed) == 1 else "are planar search settings"
+        raise ValueError(f"robustness {', '.join(changed)} {kind}: on a height map the robust particles fly every hop "
+                         f"of a sequence at the robustness's sigmas, then at {RELAXED_SIGMAS:g} sigma, and the search "
+                         f"reads only its {', '.join(MAP_ROBUSTNESS)}")
 
 
 @dataclass(frozen=True)
 class SpatialStepSettings:
     """Step-space's settings on a height map; None takes the paper's hopper's value in the hopper's units.
+    ``robustness``: its MAP_ROBUSTNESS fields only, any other changed is refused (``check_map_robustness``).
     ``safe_hops``: where no search finds a sequence, the plan holds the safest branch they grew (``Plan.safe_hops``)."""
 
     spacing: float | None = None
@@ -60,6 +78,9 @@ class SpatialStepSettings:
     robustness: Robustness | None = None
     fallback_nominal: bool = True
     safe_hops: bool = False
+
+    def __post_init__(self):
+        check_map_robustness(self.robustness)   # before any search: a setting the map search ignores is refused
 
 
 NOMINAL = RobustParticles(np.zeros((0, 7)), np.zeros((0, 6)))   # a nominal search's: none

@@ -6,16 +6,18 @@ import copy
 import functools
 import math
 import time
-from dataclasses import replace
+from dataclasses import fields, replace
 
 import numpy as np
 
 from drakeslip import StepLengthController, Terrain, step, step_batch
+from drakeslip.bounds import CELL, LEG_LENGTH, SPEED, Bound
 from drakeslip.compiled import compiling
+from drakeslip.params import check_count, check_number, shown
 from drakeslip.stepmap import STEP_MAP_BACKENDS
 from drakeslip.units import HopperUnits, units_of
 
-from planners.base import Budget, Plan, Planner, Problem
+from planners.base import MAX_NODES, Budget, Plan, Planner, Problem, check_limit
 from planners.core.grid import (GridExpansion, GridSettings, Reach, aim_candidates, children_of, grid_candidates,
                                 reach_bounds)
 from planners.search.pruned import MAX_NODES as PRUNED_NODES
@@ -37,6 +39,39 @@ REACH_PAD = 0.3            # added to the reach on both sides: level changes mov
 # sequence: a robot left without a plan fails for sure, and one whose noisy map or apex puts the only footholds
 # past a ditch a few millimetres inside the margin can still make it.
 LAST_RESORT_MARGIN = 0.25
+# Bounds of the options given in metres or m/s (None, the default, is the paper's value in the hopper's units). Each
+# holds for every hopper of drakeslip.bounds (a planner is built before it is told its hopper) and lies far outside
+# every setting used (grids of 1-2.5 cm, tolerances and margins of 2-30 cm). A grid spacing: from the finest map cell
+# (CELL, 1 mm; a finer grid holds footholds no map or aim tells apart, and unbounded candidates) to the longest leg
+# (LEG_LENGTH): a leg reaches about two leg lengths a hop, so a wider grid leaves it one foothold a hop or none.
+SPACINGS = Bound(CELL.low, LEG_LENGTH.high, "m")
+# The landing tolerance (positive: a landing must be strictly closer) and the edge margin: up to the longest leg, past
+# which one accepts every landing, the other drops every foothold. The speed a hop keeps: up to the fastest apex.
+DISTANCES, SPEEDS = Bound(0.0, LEG_LENGTH.high, "m"), Bound(0.0, SPEED.high, "m/s")
+WEIGHTS = Bound(0.0, 1e6)   # node cost weights are relative (the paper's 1, 1, 2): a millionfold leaves others no say
+
+
+def check_spacing(value, name: str) -> float:
+    """``value`` [m] as a float if it lies in SPACINGS; else ValueError naming ``name`` and the value."""
+    try:
+        return check_number(value, name, bound=SPACINGS)
+    except ValueError:   # the words the planner always gave, then the bound
+        raise ValueError(f"{name} must be a positive distance, got {shown(value)}: grid spacings lie in "
+                         f"{SPACINGS}") from None
+
+
+def check_weights(weights) -> CostWeights:
+    """``cost_weights``: a CostWeights or its fields in order (progress, speed, isolation) as a list, each weight in
+    WEIGHTS (a NaN one would order the queue at random); else ValueError naming the option and the value."""
+    names = [f.name for f in fields(CostWeights)]
+    if not isinstance(weights, CostWeights):
+        if not isinstance(weights, (tuple, list)) or len(weights) != len(names):
+            raise ValueError(f"cost_weights must be a list of {len(names)} weights ({', '.join(names)}), "
+                             f"got {shown(weights)}")
+        weights = CostWeights(*weights)
+    for name in names:
+        check_number(getattr(weights, name), f"cost_weights.{name}", bound=WEIGHTS)
+    return weights
 
 
 class StepSpacePlanner(Planner):
@@ -53,7 +88,7 @@ class StepSpacePlanner(Planner):
     ``fallback_spacing`` grid (like the paper's fallback branching; default 1 cm in the hopper's lengths): a fast,
     high hop keeps its next hop alive only for footholds in a band 2-3 cm wide, which the 1 cm grid finds. Every
     length and speed option left at None is the paper's value (GRID_SPACING, FALLBACK_SPACINGS, TOLERANCE,
-    MIN_SPEED, EDGE_MARGIN) in the hopper's units; one given is in metres or m/s.
+    MIN_SPEED, EDGE_MARGIN) in the hopper's units; one given is in metres or m/s, refused outside its bound.
 
     ``robustness`` (a ``planners.search.robust.Robustness``, or its fields as a dict) keeps only children that
     also work in its perturbed scenarios (state, actuation, model and terrain errors) and leave the hopper where
@@ -92,40 +127,45 @@ class StepSpacePlanner(Planner):
                  pruned_nodes: int = PRUNED_NODES, last_resort_margin: float | None = LAST_RESORT_MARGIN,
                  safe_hops: bool = False, **budget):
         super().__init__(**budget)
-        self.safe_hops = bool(safe_hops)
-        if isinstance(pruned_nodes, bool) or not isinstance(pruned_nodes, int) or pruned_nodes < 0:
-            raise ValueError(f"pruned_nodes must be a non-negative integer (0: no pruned stage), got {pruned_nodes!r}")
-        self.pruned_nodes = pruned_nodes
-        if last_resort_margin is not None and not 0 <= last_resort_margin < 1:
-            raise ValueError(f"last_resort_margin must be a fraction in [0, 1) or None, got {last_resort_margin!r}")
+        self.spacing = None if spacing is None else check_spacing(spacing, "spacing")
+        if fallback_spacing is not None and not isinstance(fallback_spacing, (tuple, list)):
+            raise ValueError(f"fallback_spacing must be a list of spacings [m] or None, got {shown(fallback_spacing)}")
+        self.fallback_spacing = None if fallback_spacing is None else tuple(
+            check_spacing(s, f"fallback_spacing[{i}]") for i, s in enumerate(fallback_spacing))
+        self.tolerance = None if tolerance is None else check_number(tolerance, "tolerance", positive=True,
+                                                                     bound=DISTANCES)
+        self.min_speed = None if min_speed is None else check_number(min_speed, "min_speed", bound=SPEEDS)
+        self.edge_margin = None if edge_margin is None else check_number(edge_margin, "edge_margin", bound=DISTANCES)
+        self.n_sequences = check_count(n_sequences, "n_sequences")
+        self.cost_weights = check_weights(cost_weights)
+        self.pruned_nodes = check_limit(pruned_nodes, "pruned_nodes", MAX_NODES, low=0)
+        if last_resort_margin is not None and not 0 <= check_number(last_resort_margin, "last_resort_margin") < 1:
+            raise ValueError(f"last_resort_margin must be in [0, 1) or None, got {shown(last_resort_margin)}")
         self.last_resort_margin = last_resort_margin
-        self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
+        try:
+            self.robustness = Robustness(**robustness) if isinstance(robustness, dict) else robustness
+        except TypeError as error:   # an unknown field
+            raise ValueError(f"robustness: {error}") from None
         if self.robustness is not None and not isinstance(self.robustness, Robustness):
-            raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {robustness!r}")
-        self.fallback_nominal = bool(fallback_nominal)
-        if step_map not in STEP_MAP_BACKENDS:
-            raise ValueError(f"unknown step_map {step_map!r}; choose one of {STEP_MAP_BACKENDS}")
+            raise ValueError(f"robustness must be a Robustness or a dict of its fields, got {shown(robustness)}")
+        for name, flag in (("fallback_nominal", fallback_nominal), ("safe_hops", safe_hops)):
+            if not isinstance(flag, (bool, np.bool_)):   # bool("false") is True
+                raise ValueError(f"{name} must be true or false, got {shown(flag)}")
+        self.fallback_nominal, self.safe_hops = bool(fallback_nominal), bool(safe_hops)
+        if not isinstance(step_map, str) or step_map not in STEP_MAP_BACKENDS:
+            raise ValueError(f"unknown step_map {shown(step_map)}; choose one of {STEP_MAP_BACKENDS}")
         self.step_map = step_map
+        if controller is not None and not isinstance(controller, StepLengthController):
+            raise ValueError(f"controller must be a StepLengthController or None, got {shown(controller)}")
         self.controller = controller or StepLengthController.load_default()
-        self.spacing = spacing
-        self.fallback_spacing = None if fallback_spacing is None else tuple(fallback_spacing)
-        for s in (spacing, *(self.fallback_spacing or ())):
-            if s is not None and not (math.isfinite(s) and s > 0):
-                raise ValueError(f"spacing must be a positive distance, got {s!r}")
-        if not (isinstance(n_sequences, int) and n_sequences >= 1):
-            raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
-        self.tolerance = None if tolerance is None else float(tolerance)
-        self.n_sequences = n_sequences
-        self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
-        self.min_speed = None if min_speed is None else float(min_speed)
-        self.edge_margin = None if edge_margin is None else float(edge_margin)
         if step_map == "fast":   # the core holds its own step map; the Python search simulates on Drake
             warm_up_core()
 
     def plan_on_map(self, apex, height_map, goal, params=None) -> Plan:
         """Step-space on a height map (``planners.search.spatial_step``) with this planner's grid, tolerance, margins,
-        cost weights, budget, robustness (its noise and sigmas: particles that must survive each hop) and safe hops;
-        the Drake step map, a planar option, is refused in one line."""
+        cost weights, budget, robustness (its noise, sigmas and friction loss: particles that must survive each hop;
+        its planar fields are refused, ``spatial_step.check_map_robustness``) and safe hops; the Drake step map, a
+        planar option, is refused in one line."""
         t0 = time.perf_counter()
         if self.step_map != "fast":
             raise ValueError(f"the {self.name!r} planner plans on a height map without step_map='drake'")
