@@ -108,3 +108,16 @@ def test_messages_show_long_values_short():
     with pytest.raises(ValueError, match=r"spacing must be a positive distance") as refused:
         planners.make("step", spacing="x" * 1000)
     assert shown("x" * 1000) in str(refused.value) and len(str(refused.value)) < 200
+
+
+@pytest.mark.parametrize("label, option, value, value_shown", [
+    ("angle", "min_speed", NAN, "nan"), ("angle", "edge_margin", -1.0, "-1.0"), ("angle", "cost_weights", (1, NAN, 2),
+                                                                                 "nan"),
+    ("angle", "n_sequences", True, "True"), ("angle", "branching", 0, "0"), ("angle", "seed", -1, "-1"),
+    ("lstm", "edge_margin", NAN, "nan")])
+def test_the_other_searches_check_the_shared_options_the_same_way(label, option, value, value_shown):
+    """Angle-space and the LSTM planner take some of Step-space's options: each is refused as Step-space refuses it."""
+    with pytest.raises(ValueError) as error:
+        planners.make(label, **{option: value})
+    message = str(error.value)
+    assert value_shown in message and "\n" not in message, message

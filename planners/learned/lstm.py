@@ -17,7 +17,7 @@ from planners.learned.model import FootstepModel, load_checkpoint
 from planners.learned.spatial_guided import plan_on_map
 from planners.learned.ranker import FootholdRanker, candidate_features, log_probability, top_candidates
 from planners.search.step_space import GRID_SPACING
-from planners.search.tree import EDGE_MARGIN, clear_of_edges
+from planners.search.tree import EDGE_MARGIN, check_options, clear_of_edges
 
 _MODELS: dict = {}
 
@@ -107,7 +107,7 @@ class LSTMPlanner(Planner):
         self.net = FootstepDistribution(self.model, mask_ditches)
         self.max_steps = max_steps
         self.controller = controller or StepLengthController.load_default()
-        self.edge_margin = None if edge_margin is None else float(edge_margin)
+        self.edge_margin = check_options(None, edge_margin)[1]
         if not (isinstance(top_k, int) and top_k >= 1):
             raise ValueError(f"top_k must be a positive integer, got {top_k!r}")
         self.top_k = top_k

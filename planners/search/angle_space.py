@@ -7,13 +7,14 @@ import time
 import numpy as np
 
 from drakeslip import step_batch
+from drakeslip.params import check_count, shown
 
 from planners.base import Plan, Planner, Problem
 from planners.core.grid import isolation
 from planners.core.tree import NO_GOAL, Children, child_costs
 from planners.search.loop import ADMIT_ALL, search
 from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, Attempts,
-                                  CostWeights, SearchResult, clear_of_edges, warm_up)
+                                  CostWeights, SearchResult, check_options, check_weights, clear_of_edges, warm_up)
 
 
 class AngleSpacePlanner(Planner):
@@ -30,18 +31,14 @@ class AngleSpacePlanner(Planner):
                  cost_weights: CostWeights | tuple = CostWeights(), min_speed: float | None = None,
                  edge_margin: float | None = None, seed: int = 0, **budget):
         super().__init__(**budget)
-        for b in (branching, *fallback):
-            if not (isinstance(b, int) and b >= 1):
-                raise ValueError(f"branching factors must be positive integers, got {b!r}")
-        if not (isinstance(n_sequences, int) and n_sequences >= 1):
-            raise ValueError(f"n_sequences must be a positive integer, got {n_sequences!r}")
-        self.branchings = (branching, *fallback)
-        self.n_sequences = n_sequences
-        self.cost_weights = cost_weights if isinstance(cost_weights, CostWeights) else CostWeights(*cost_weights)
+        if not isinstance(fallback, (tuple, list)):
+            raise ValueError(f"fallback must be a list of branching factors, got {shown(fallback)}")
+        self.branchings = tuple(check_count(b, "branching factor") for b in (branching, *fallback))
+        self.n_sequences = check_count(n_sequences, "n_sequences")
+        self.cost_weights = check_weights(cost_weights)
+        self.min_speed, self.edge_margin = check_options(min_speed, edge_margin)
+        self.seed = check_count(seed, "seed", low=0)
         warm_up()
-        self.min_speed = None if min_speed is None else float(min_speed)
-        self.edge_margin = None if edge_margin is None else float(edge_margin)
-        self.seed = seed
 
     def search(self, apex, terrain, goal_x, params=None, branching: int | None = None) -> SearchResult:
         """One search with one branching factor; the tree in the result holds every node it created."""

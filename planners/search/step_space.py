@@ -6,12 +6,12 @@ import copy
 import functools
 import math
 import time
-from dataclasses import fields, replace
+from dataclasses import replace
 
 import numpy as np
 
 from drakeslip import StepLengthController, Terrain, step, step_batch
-from drakeslip.bounds import CELL, LEG_LENGTH, SPEED, Bound
+from drakeslip.bounds import CELL, LEG_LENGTH, Bound
 from drakeslip.compiled import compiling
 from drakeslip.params import check_count, check_number, shown
 from drakeslip.stepmap import STEP_MAP_BACKENDS
@@ -27,8 +27,8 @@ from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.spatial_problem import spatial_problem
 from planners.search.spatial_step import SpatialStepSettings, plan_step_space
-from planners.search.tree import (EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED, REACH_ANGLES,
-                                  Attempts, CostWeights, SearchResult)
+from planners.search.tree import (DISTANCES, EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED,
+                                  REACH_ANGLES, Attempts, CostWeights, SearchResult, check_options, check_weights)
 
 # The paper's hopper's settings [m] (a search uses them in its hopper's lengths, see planners.base.Planner):
 GRID_SPACING = 0.025       # the foothold grid: a quarter of the paper's 10 cm cells
@@ -45,10 +45,6 @@ LAST_RESORT_MARGIN = 0.25
 # (CELL, 1 mm; a finer grid holds footholds no map or aim tells apart, and unbounded candidates) to the longest leg
 # (LEG_LENGTH): a leg reaches about two leg lengths a hop, so a wider grid leaves it one foothold a hop or none.
 SPACINGS = Bound(CELL.low, LEG_LENGTH.high, "m")
-# The landing tolerance (positive: a landing must be strictly closer) and the edge margin: up to the longest leg, past
-# which one accepts every landing, the other drops every foothold. The speed a hop keeps: up to the fastest apex.
-DISTANCES, SPEEDS = Bound(0.0, LEG_LENGTH.high, "m"), Bound(0.0, SPEED.high, "m/s")
-WEIGHTS = Bound(0.0, 1e6)   # node cost weights are relative (the paper's 1, 1, 2): a millionfold leaves others no say
 
 
 def check_spacing(value, name: str) -> float:
@@ -58,20 +54,6 @@ def check_spacing(value, name: str) -> float:
     except ValueError:   # the words the planner always gave, then the bound
         raise ValueError(f"{name} must be a positive distance, got {shown(value)}: grid spacings lie in "
                          f"{SPACINGS}") from None
-
-
-def check_weights(weights) -> CostWeights:
-    """``cost_weights``: a CostWeights or its fields in order (progress, speed, isolation) as a list, each weight in
-    WEIGHTS (a NaN one would order the queue at random); else ValueError naming the option and the value."""
-    names = [f.name for f in fields(CostWeights)]
-    if not isinstance(weights, CostWeights):
-        if not isinstance(weights, (tuple, list)) or len(weights) != len(names):
-            raise ValueError(f"cost_weights must be a list of {len(names)} weights ({', '.join(names)}), "
-                             f"got {shown(weights)}")
-        weights = CostWeights(*weights)
-    for name in names:
-        check_number(getattr(weights, name), f"cost_weights.{name}", bound=WEIGHTS)
-    return weights
 
 
 class StepSpacePlanner(Planner):
@@ -134,8 +116,7 @@ class StepSpacePlanner(Planner):
             check_spacing(s, f"fallback_spacing[{i}]") for i, s in enumerate(fallback_spacing))
         self.tolerance = None if tolerance is None else check_number(tolerance, "tolerance", positive=True,
                                                                      bound=DISTANCES)
-        self.min_speed = None if min_speed is None else check_number(min_speed, "min_speed", bound=SPEEDS)
-        self.edge_margin = None if edge_margin is None else check_number(edge_margin, "edge_margin", bound=DISTANCES)
+        self.min_speed, self.edge_margin = check_options(min_speed, edge_margin)
         self.n_sequences = check_count(n_sequences, "n_sequences")
         self.cost_weights = check_weights(cost_weights)
         self.pruned_nodes = check_limit(pruned_nodes, "pruned_nodes", MAX_NODES, low=0)

@@ -4,12 +4,14 @@ search itself is ``planners.search.loop.search``."""
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from drakeslip import Terrain, step_batch
+from drakeslip.bounds import LEG_LENGTH, SPEED, Bound
 from drakeslip.compiled import compiling
+from drakeslip.params import check_number, shown
 
 from planners.base import FootstepSequence, Plan, Problem
 
@@ -31,6 +33,12 @@ ISOLATION_AT_FAILURE = 0.5
 # A node with untried candidates returns to the queue at its cost plus this, so it is expanded again only
 # once its children's subtrees look worse (in cost units: metres of progress).
 REEXPAND_PENALTY = 0.5
+# Bounds of the search options given in metres or m/s (None, the default, is the paper's value in the hopper's units),
+# for every hopper of drakeslip.bounds (a planner is built before it is told its hopper): the landing tolerance
+# (positive: a landing must be strictly closer) and the edge margin up to the longest leg, past which one accepts every
+# landing and the other drops every foothold; the speed a hop keeps up to the fastest apex.
+DISTANCES, SPEEDS = Bound(0.0, LEG_LENGTH.high, "m"), Bound(0.0, SPEED.high, "m/s")
+WEIGHTS = Bound(0.0, 1e6)   # node cost weights are relative (the paper's 1, 1, 2): a millionfold leaves others no say
 
 
 @dataclass(frozen=True)
@@ -49,6 +57,27 @@ class CostWeights:
 
         return Scoring(float(problem.target_x), float(self.progress), float(self.speed * problem.units.time),
                        float(self.isolation))
+
+
+def check_weights(weights) -> CostWeights:
+    """``cost_weights``: a CostWeights or its fields in order (progress, speed, isolation) as a list, each weight in
+    WEIGHTS (a NaN one would order the queue at random); else ValueError naming the option and the value."""
+    names = [f.name for f in fields(CostWeights)]
+    if not isinstance(weights, CostWeights):
+        if not isinstance(weights, (tuple, list)) or len(weights) != len(names):
+            raise ValueError(f"cost_weights must be a list of {len(names)} weights ({', '.join(names)}), "
+                             f"got {shown(weights)}")
+        weights = CostWeights(*weights)
+    for name in names:
+        check_number(getattr(weights, name), f"cost_weights.{name}", bound=WEIGHTS)
+    return weights
+
+
+def check_options(min_speed, edge_margin) -> tuple:
+    """(min_speed, edge_margin) as floats inside SPEEDS and DISTANCES, each None left None (the paper's value in the
+    hopper's units); else ValueError naming the option and the value."""
+    return (None if min_speed is None else check_number(min_speed, "min_speed", bound=SPEEDS),
+            None if edge_margin is None else check_number(edge_margin, "edge_margin", bound=DISTANCES))
 
 
 @dataclass
