@@ -33,6 +33,7 @@ from drakeslip.jobs import cli
 from drakeslip import cli_physics
 from drakeslip.noise import PROFILES
 from drakeslip.terrain import check_window
+from verification.robustness import MAX_SAMPLES
 
 
 def arguments() -> cli.ArgumentParser:
@@ -45,7 +46,7 @@ def arguments() -> cli.ArgumentParser:
     ap.add_argument("--map-filter", type=cli.positive_int, default=1,
                     help="cells of the median filter each robot runs on its sensed height map, odd (1: the map as "
                          "sensed; the robust presets' robots use 5)")
-    ap.add_argument("--samples", type=cli.positive_int, default=1000, help="Monte Carlo draws")
+    ap.add_argument("--samples", type=cli.integer(1, MAX_SAMPLES), default=1000, help="Monte Carlo draws")
     ap.add_argument("--seed", type=cli.non_negative_int, default=0, help="seed of the draws")
     ap.add_argument("--hops", type=cli.positive_int, default=None,
                     help="count a draw a success when it completes the plan's first HOPS hops (default: all of them)")

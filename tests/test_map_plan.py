@@ -228,6 +228,10 @@ def test_noiseless_draws_fly_a_certified_plan_and_a_seed_repeats_its_draws(saved
     assert np.array_equal(noisy[0].draws[0].apex_errors,
                           apex_errors3d(PROFILES["realistic"].for_hopper(record.params), rng, 2))
     assert noisy[0].draws[0].apex_errors.shape == (2, 5) and noisy[0].draws[0].angle_errors.shape == (2, 2)
+    # a draw keeps the heights its sensed map has at the footholds it aims at, not the map (a thousand maps: a GB)
+    heights = noisy[0].draws[0].sensed
+    assert heights.shape == (2,) and np.all(np.abs(heights - record.footholds[:2, 2]) < 0.1)
+    assert any(not np.array_equal(a.sensed, b.sensed) for a, b in zip(noisy[0].draws, noisy[0].draws[1:]))
     # ten times the noise fails more often than the profile itself
     wild = map_success_probability(record, 40, PROFILES["realistic"].scaled(10.0), seed=5, hops=2)
     assert wild.successes < noisy[0].successes

@@ -33,7 +33,9 @@ MAP_BACKENDS = ("fast", "drake", "multibody")
 def draw_map_robots(record: MapPlanRecord, n: int, noise: NoiseProfile, seed: int, hops: int,
                     map_filter: int = 1) -> list:
     """``n`` hoppers drawn from ``noise`` (in the plan's hopper's units) for the plan's first ``hops`` hops, in the
-    planar draws' order: the apex errors, the executed hopper, the sensed map, the angle errors."""
+    planar draws' order: the apex errors, the executed hopper, the sensed map, the angle errors. A draw keeps of its
+    sensed map the heights the hopper aims at (``aimed_heights``), not the map: a thousand sensed copies of a suite's
+    map would hold a gigabyte."""
     rng = np.random.default_rng(seed)
     noise = noise.for_hopper(record.params)
     out = []
@@ -43,8 +45,14 @@ def draw_map_robots(record: MapPlanRecord, n: int, noise: NoiseProfile, seed: in
         params = noise.executed_params(record.params, rng)
         sensed = perceived_map(noise, record.height_map, rng, map_filter) if (noise.heights or noise.edges) \
             else record.height_map
-        out.append(Draw(start, params, sensed, errors, angle_errors3d(noise, rng, hops)))
+        out.append(Draw(start, params, aimed_heights(record, sensed, hops), errors, angle_errors3d(noise, rng, hops)))
     return out
+
+
+def aimed_heights(record: MapPlanRecord, sensed, hops: int) -> np.ndarray:
+    """The height the hopper aims each of the plan's first ``hops`` footholds at: its ``sensed`` map's there, or the
+    plan's where the sensed map has a hole."""
+    return np.array([sensed_height(sensed, x, y, z) for x, y, z in record.footholds[:hops]])
 
 
 # many parameters: the plan, the Monte Carlo's size, profile and seed, and how each draw runs, each with a default
@@ -74,7 +82,7 @@ def run_draws(record: MapPlanRecord, draws: list, hops: int, backend: str):
     """Every draw's FailureMode code (0 = success) and the hop it failed in (-1 = success)."""
     failures, failed = np.zeros(len(draws), dtype=np.int64), np.full(len(draws), -1)
     for i, d in enumerate(draws):
-        targets = [(x, y, sensed_height(d.sensed, x, y, z)) for x, y, z in record.footholds[:hops]]
+        targets = [(x, y, z) for (x, y, _), z in zip(record.footholds[:hops], d.sensed)]
         if d.start[2] <= record.height_map.height_at(d.start[0], d.start[1]):
             code, hop = int(FailureMode.TRIP), 0   # a start below the ground: its foot is too
         elif backend == "multibody":
