@@ -232,6 +232,9 @@ def test_height_map_files(tmp_path):
     (tmp_path / "short.asc").write_text("ncols 3\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2 3\n")
     with pytest.raises(ValueError, match="expected 2 rows of 3"):
         load_height_map(tmp_path / "short.asc")
+    (tmp_path / "twice.asc").write_text("ncols 3\nnrows 1\nncols 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n")
+    with pytest.raises(ValueError, match="header line 'ncols' is given twice"):
+        load_height_map(tmp_path / "twice.asc")
 
 
 def test_a_perception_window_is_the_map_over_its_cells():

@@ -283,6 +283,8 @@ def read_ascii_grid(text: str, where: str) -> HeightMap:
         key, *value = lines.pop(0)
         if len(value) != 1:
             raise ValueError(f"{where}: header line {key!r} needs one value")
+        if key.lower() in header:   # two values of one key: which the exporter meant is not for the reader to pick
+            raise ValueError(f"{where}: header line {key!r} is given twice")
         header[key.lower()] = value[0]
     if "xllcenter" in header or "yllcenter" in header:
         raise ValueError(f"{where}: xllcenter/yllcenter grids are not read; give xllcorner and yllcorner")
