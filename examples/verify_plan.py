@@ -61,6 +61,17 @@ def arguments() -> cli.ArgumentParser:
     return ap
 
 
+def covering(terrain, record, path):
+    """``terrain`` (a --terrain file's) if it covers the plan, from its start to its last foothold; else ValueError: a
+    certificate on ground the file does not describe (past its ends a terrain extends flat) would certify another
+    course than the user's."""
+    low, high = min(record.apex.x, *record.footholds), max(record.apex.x, *record.footholds)
+    if low < terrain.x0 or high >= terrain.x_end:
+        raise ValueError(f"--terrain {path} covers x in [{terrain.x0:g}, {terrain.x_end:g}) m; the plan runs from "
+                         f"x={low:g} to x={high:g} m: give a terrain that covers it")
+    return terrain
+
+
 def is_map_plan_file(ap: cli.ArgumentParser, path) -> bool:
     """Whether ``path`` holds a map plan (by its format); one line and exit status 2 for a file that is not JSON."""
     from drakeslip.jobs.files import read_json
@@ -90,7 +101,7 @@ def checked_plan(ap: cli.ArgumentParser, args):
 
             check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
         if args.terrain is not None:
-            record = replace(record, terrain=args.terrain.terrain)
+            record = replace(record, terrain=covering(args.terrain.terrain, record, args.terrain.path))
         if args.mode == "angles" and not all(abs(a) < 1.5707963 for a in record.leg_angles):
             raise ValueError(f"--mode angles needs every leg angle; {args.plan} has NaN ones: use --mode footholds")
     except (OSError, ValueError) as error:

@@ -156,3 +156,30 @@ def test_make_suites_refuses_too_many_cases_and_leaves_no_folder(run_script, tmp
 def test_make_suites_draws_up_to_its_bounds(example):
     make_suites = example("make_suites")
     assert make_suites.count_or_folder(str(make_suites.MAX_TERRAINS)) == make_suites.MAX_TERRAINS
+
+
+def test_a_suite_case_that_starts_at_or_past_its_goal_is_refused(tmp_path, run_script):
+    """A run from there would succeed with no hop and a plan would hold no foothold: the suite is refused naming the
+    case's start and the goal (a make_plan.py of such a case crashed on the empty plan)."""
+    import json
+
+    document = json.loads(Path(SUITE).read_text())
+    document["goal_x"] = -50.0
+    (tmp_path / "s.json").write_text(json.dumps(document))
+    err = refused(run_script, "make_plan", "--suite", tmp_path / "s.json", "--case", "0", "--planner", "step",
+                  "--out", tmp_path / "p.json")
+    assert "cases[0].apex.x=" in err and "is not before the suite's goal_x=-50" in err
+    assert not (tmp_path / "p.json").exists()
+
+
+def test_a_json_object_with_a_key_given_twice_is_refused(tmp_path, run_script):
+    """The parser would keep the last value silently: a hopper file, a suite or --options that gives a key twice is
+    refused naming the key."""
+    from drakeslip.jobs.files import parse_json
+
+    with pytest.raises(ValueError, match=r"^--options: the key 'mass' is given twice in one object$"):
+        parse_json('{"a": {"mass": 7, "mass": 8}}', "--options")
+    assert parse_json('{"a": {"mass": 7}, "b": {"mass": 8}}', "x") == {"a": {"mass": 7}, "b": {"mass": 8}}
+    err = refused(run_script, "evaluate", "--suite", SUITE, "--cases", "1", "--planners", "step", "--options",
+                  '{"step": {"max_nodes": 5, "max_nodes": 6}}', "--out", tmp_path / "r.json")
+    assert "the key 'max_nodes' is given twice" in err

@@ -157,6 +157,11 @@ def test_cli_make_plan_then_verify_exit_codes(tmp_path, controller, run_script):
     (tmp_path / "broken.json").write_text("{")
     code, _, err = run_script("verify_plan", "--plan", tmp_path / "broken.json")
     assert code == 2 and "broken.json is not valid JSON" in err and len(err.splitlines()) == 1
+    # a terrain file that does not hold the plan's course would certify it on the flat ground past its ends
+    (tmp_path / "short.csv").write_text("0,0\n0.5,0\n")
+    code, _, err = run_script("verify_plan", "--plan", plan, "--terrain", tmp_path / "short.csv")
+    assert code == 2 and len(err.splitlines()) == 1, err
+    assert "short.csv covers x in [0, " in err and "give a terrain that covers it" in err
 
 
 def test_every_registered_planner_is_known_after_import_planners():

@@ -47,13 +47,31 @@ def read_json(path, what: str):
     return parse_json(text, f"{what} {path}")
 
 
+class DuplicateKey(ValueError):
+    """A JSON object that gives one key twice."""
+
+
+def unique_keys(pairs: list) -> dict:
+    """A JSON object's pairs as a dict; DuplicateKey for a key given twice (the parser would keep the last silently,
+    and which one the writer meant is not for the reader to guess)."""
+    out = {}
+    for key, value in pairs:
+        if key in out:
+            raise DuplicateKey(f"the key {key!r} is given twice in one object")
+        out[key] = value
+    return out
+
+
 def parse_json(text: str, what: str):
-    """The JSON document ``text`` (a file's, or an option's given on a command line); one that does not parse, or
-    is nested too deeply for the parser, raises ValueError naming ``what``, in one line."""
+    """The JSON document ``text`` (a file's, or an option's given on a command line); one that does not parse, gives
+    a key twice in an object, or is nested too deeply for the parser, raises ValueError naming ``what``, in one
+    line."""
     try:
-        return json.loads(text)
+        return json.loads(text, object_pairs_hook=unique_keys)
     except json.JSONDecodeError as exc:
         raise ValueError(f"{what} is not valid JSON: {exc}") from exc
+    except DuplicateKey as exc:
+        raise ValueError(f"{what}: {exc}") from None
     except RecursionError:
         raise ValueError(f"{what} is nested too deeply to read as JSON") from None
 

@@ -130,6 +130,8 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
             raise ValueError(f"{where}.apex.z={apex.z} is not above the terrain at x={apex.x}")
         if apex.xdot <= 0:
             raise ValueError(f"{where}.apex.xdot must be positive, got {apex.xdot}")
+        if apex.x >= goal_x:   # a run would succeed with no hop, and a plan would hold no foothold
+            raise ValueError(f"{where}.apex.x={apex.x} is not before the suite's goal_x={goal_x}")
         cases.append(Case(case_id, terrain, check_start(apex, terrain, params, f"{where}.apex")))
     return Suite(name, goal_x, friction, tuple(cases), hopper)
 
