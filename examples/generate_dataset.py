@@ -37,8 +37,9 @@ def parser() -> cli.ArgumentParser:
     ap.add_argument("--planner", choices=("angle", "step", "expert"), default=DatasetConfig.planner,
                     help="the search whose trees become sequences (angle: the paper's), or the goal-reaching "
                          "expert whose rollouts do (planners/learned/training/expert.py)")
-    ap.add_argument("--explore", type=cli.probability, default=DatasetConfig.explore,
-                    help="--planner expert: chance a rollout hops to a random goal-reaching foothold")
+    ap.add_argument("--explore", type=cli.probability, default=None,
+                    help=f"--planner expert: chance a rollout hops to a random goal-reaching foothold (default: "
+                         f"{DatasetConfig.explore:g})")
     ap.add_argument("--policy", type=cli.input_file, default=None,
                     help="--planner expert: footstep model weights whose one-step mode planner the rollouts "
                          "follow while it stays goal-reaching (DAgger)")
@@ -84,9 +85,12 @@ def dataset_hopper(hopper) -> dict | None:
     return asdict(hopper.params)
 
 
-def main(argv=None):
-    ap = parser()
-    args = ap.parse_args(argv)
+def checked_config(ap: cli.ArgumentParser, args) -> DatasetConfig:
+    """The dataset's settings, or one line and exit status 2 for a bad one, --explore with a planner other than the
+    expert (the only one that explores), or a --policy file that is not footstep model weights: all before any
+    shard, or config.json, is written."""
+    if args.explore is not None and args.planner != "expert":
+        ap.error(f"--explore {args.explore:g} is for --planner expert, not {args.planner}")
     try:
         cfg = DatasetConfig(planner=args.planner, min_steps=args.min_steps, start_x=args.start_x,
                             height_range=args.heights, speed_range=args.speeds, n_terrains=args.terrains,
@@ -95,8 +99,26 @@ def main(argv=None):
                                                        else DatasetConfig.friction),
                             hopper=dataset_hopper(args.hopper),
                             seed=args.seed, instances_per_shard=args.shard_size, subcells=args.subcells,
-                            explore=args.explore, policy=str(args.policy) if args.policy else "",
+                            explore=DatasetConfig.explore if args.explore is None else args.explore,
+                            policy=str(args.policy) if args.policy else "",
                             expert_look_ahead=args.look_ahead, families=tuple(args.families))
+    except ValueError as error:
+        ap.error(str(error))
+    if args.policy:
+        from planners.learned.lstm import load_model
+
+        try:
+            load_model(args.policy)
+        except (OSError, ValueError) as error:  # a damaged or mismatched weights file
+            ap.error(f"--policy: {error}")
+    return cfg
+
+
+def main(argv=None):
+    ap = parser()
+    args = ap.parse_args(argv)
+    cfg = checked_config(ap, args)
+    try:
         executor = cli.executor(args)
         from tqdm import tqdm
 

@@ -12,8 +12,8 @@ apexes beside what Drake did. --hopper takes a hopper file or folder, --terrain 
 examples/make_suites.py --hopper draws it) or a terrain file (a height profile, drakeslip/terrain_file.py); --z and
 --xdot left out are the paper's 0.75 m above the ground and 1.5 m/s in the hopper's units.
 
-Exit status: 0 every hop completed, 1 one failed, 2 a usage or input error, 3 a simulation crashed (one line naming what
-failed: drakeslip/jobs/cli.py).
+Exit status: 0 every hop completed, 1 one failed or the lookahead found no leg angle before --hops hops, 2 a usage
+or input error, 3 a simulation crashed (one line naming what failed: drakeslip/jobs/cli.py).
 """
 from __future__ import annotations
 
@@ -74,7 +74,8 @@ class TwoHopLookahead:
         return float(angles[candidates[int(np.argmin(cost))]])
 
 
-def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
+def report(result, policy: TwoHopLookahead, start: ds.ApexState, hops: int) -> None:
+    """Each hop, then the outcome: ok only when all ``hops`` hops were completed."""
     apexes = [start] + result.apexes
     touchdowns = [e for e in result.events if e.kind == "touchdown"]
     terrain = result.terrain
@@ -93,9 +94,12 @@ def report(result, policy: TwoHopLookahead, start: ds.ApexState) -> None:
         print(f"outcome: FAILED with {result.failure.name} at t={e.time:.3f} s, body at x={e.state[0]:.3f} "
               f"z={e.state[1]:.3f}")
     else:
-        travelled = f"{len(result.apexes)} hops, {apexes[-1].x - start.x:.2f} m travelled"
-        halted = policy.warnings.get(len(result.leg_angles))
-        print(f"outcome: stopped after {travelled}: {halted}" if halted else f"outcome: ok, {travelled}")
+        done, travelled = len(result.apexes), f"{apexes[-1].x - start.x:.2f} m travelled"
+        if done < hops:   # the lookahead found no leg angle to command
+            print(f"outcome: FAILED, stopped after {done} of {hops} hops, {travelled}: "
+                  f"{policy.warnings[len(result.leg_angles)]}")
+        else:
+            print(f"outcome: ok, {done} hops, {travelled}")
 
 
 def arguments() -> cli.ArgumentParser:
@@ -121,10 +125,11 @@ def arguments() -> cli.ArgumentParser:
 
 def checked_inputs(ap: cli.ArgumentParser, args):
     """(the hopper's parameters, the terrain, the start apex), or one line and exit status 2 for a start off the
-    terrain; ``args.terrain`` names a terrain file's path afterwards."""
+    terrain's solid ground or out of bounds; ``args.terrain`` names a terrain file's path afterwards."""
     from drakeslip.state import check_start
     from drakeslip.terrain_file import scaled_terrain
     from drakeslip.units import PAPER, units_of
+    from planners.formats.suite_draw import check_solid_start
 
     params = ds.SlipParams() if args.hopper is None else args.hopper.params
     units = units_of(params)
@@ -138,6 +143,10 @@ def checked_inputs(ap: cli.ArgumentParser, args):
         from planners.formats.suite_draw import hopper_terrain, suite_scales
 
         terrain = hopper_terrain(args.terrain, args.seed, suite_scales(params))
+    try:
+        check_solid_start(terrain, args.x0)   # as plan_and_hop.py refuses it
+    except ValueError as error:
+        ap.error(f"--x0: {error}")
     z = terrain.height_at(args.x0) + 0.75 * units.length if args.z is None else args.z
     try:
         start = check_start((args.x0, z, 1.5 * units.speed if args.xdot is None else args.xdot), terrain, params,
@@ -177,9 +186,9 @@ def main(argv=None) -> int:
     policy = TwoHopLookahead(terrain, params, nominal_speed=start.xdot)
     print(f"{args.terrain} terrain (seed {args.seed}), start apex {tuple(start)}, up to {args.hops} hops in Drake")
     result = ds.simulate(start, policy, terrain, params, max_hops=args.hops)
-    report(result, policy, start)
+    report(result, policy, start, args.hops)
     draw(result, policy, args)
-    return cli.FAILED if result.failure is not None else cli.OK
+    return cli.FAILED if result.failure is not None or len(result.apexes) < args.hops else cli.OK
 
 
 if __name__ == "__main__":

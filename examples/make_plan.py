@@ -85,6 +85,7 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
 
     if (args.suite is None) != (args.case is None):
         ap.error("--case goes with --suite (and --suite needs it)")
+    check_start_options(ap, args)
     try:
         if args.suite is not None:
             suite = load_map_suite(args.suite) if is_map_suite(read_json(args.suite, "suite file")) else \
@@ -107,6 +108,15 @@ def checked_case(ap: cli.ArgumentParser, args, options: dict):
     else:
         ap.error(f"--case {args.case!r} is neither a case id nor an index below {len(ids)} in {args.suite}")
     return suite, hopper, planner, index
+
+
+def check_start_options(ap: cli.ArgumentParser, args) -> None:
+    """One line and exit status 2 for a start or goal option given with --suite: the suite's case has its own."""
+    given = [flag for flag, value in (("--start-x", args.start_x), ("--speed", args.speed), ("--height", args.height),
+                                      ("--goal", args.goal)) if value is not None]
+    if args.suite is not None and given:
+        ap.error(f"{', '.join(given)} go{'es' if len(given) == 1 else ''} with --terrain: a --suite case has its "
+                 "own start and goal")
 
 
 @cli_physics.reports_crashes

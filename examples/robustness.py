@@ -62,8 +62,8 @@ def arguments() -> cli.ArgumentParser:
 
 
 def checked_plan(ap: cli.ArgumentParser, args):
-    """The plan file's record, or one line and exit status 2 for flags that do not go together, a bad --map-filter,
-    a malformed plan file, another hopper's plan or more --hops than the plan has."""
+    """The plan file's record, or one line and exit status 2 for flags that do not go together, a bad --map-filter
+    or one without noise, a malformed plan file, another hopper's plan or more --hops than the plan has."""
     if args.backend == "multibody" and args.drake:
         ap.error("--drake compares fast-backend draws with Drake: use it with --backend fast")
     if args.drake > args.samples:
@@ -72,6 +72,8 @@ def checked_plan(ap: cli.ArgumentParser, args):
         check_window(args.map_filter, "--map-filter")
     except ValueError as error:
         ap.error(str(error))
+    if args.map_filter != 1 and args.noise.silent:   # a silent profile senses the map exactly: nothing to filter
+        ap.error(f"--map-filter {args.map_filter} filters the map a noisy robot senses: give --noise")
 
     from drakeslip.hopper_file import check_same_hopper, hopper_for
     from drakeslip.jobs.files import read_json

@@ -270,6 +270,14 @@ def hopper_for_suite(suite: Suite, hopper: NamedHopper | None = None) -> NamedHo
     return hopper
 
 
+def check_solid_start(terrain: Terrain, x: float) -> None:
+    """ValueError in one line unless ``x`` lies on solid ground of ``terrain``, between its ends: a start past them
+    hops on ground the terrain does not describe."""
+    if not terrain.x0 <= x < terrain.x_end or terrain.is_ditch_at(x):
+        raise ValueError(f"the start x={x:g} is not on solid ground of the terrain "
+                         f"[{terrain.x0:g}, {terrain.x_end:g}) m")
+
+
 def one_case(terrain, seed: int = 0, hopper: NamedHopper | None = None, speed: float | None = None,
              height: float | None = None, goal_x: float | None = None, start_x: float | None = None) -> Suite:
     """A suite of one case for ``hopper`` (default: the paper's), as examples/plan_and_hop.py runs it: on the draw
@@ -292,9 +300,7 @@ def one_case(terrain, seed: int = 0, hopper: NamedHopper | None = None, speed: f
     else:
         raise TypeError(f"terrain must be a family name or a Terrain, got {type(terrain).__name__}")
     start_x = (first_foothold(terrain, leg) if start_x is None else check_number(start_x, "start_x"))
-    if not terrain.x0 <= start_x < terrain.x_end or terrain.is_ditch_at(start_x):
-        raise ValueError(f"the start x={start_x:g} is not on solid ground of the terrain "
-                         f"[{terrain.x0:g}, {terrain.x_end:g}) m")
+    check_solid_start(terrain, start_x)
     above = (DEMO_HEIGHT * scales.length * scales.start_heights[0] if height is None
              else check_number(height, "start height", positive=True))
     speed = DEMO_SPEED * scales.speed if speed is None else check_number(speed, "start speed", positive=True)
