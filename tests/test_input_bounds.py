@@ -183,3 +183,15 @@ def test_a_json_object_with_a_key_given_twice_is_refused(tmp_path, run_script):
     err = refused(run_script, "evaluate", "--suite", SUITE, "--cases", "1", "--planners", "step", "--options",
                   '{"step": {"max_nodes": 5, "max_nodes": 6}}', "--out", tmp_path / "r.json")
     assert "the key 'max_nodes' is given twice" in err
+
+
+def test_a_suite_field_the_reader_does_not_know_is_refused(tmp_path, run_script):
+    """A case's own goal_x (a suite has one goal), or any misspelt field, would be ignored without a word."""
+    import json
+
+    document = json.loads(Path(SUITE).read_text())
+    document["cases"][0]["goal_x"] = 3.0
+    (tmp_path / "s.json").write_text(json.dumps(document))
+    err = refused(run_script, "evaluate", "--suite", tmp_path / "s.json", "--cases", "1", "--planners", "step",
+                  "--out", tmp_path / "r.json")
+    assert "cases[0]: unknown field 'goal_x' (the fields are id, terrain, apex)" in err

@@ -43,7 +43,7 @@ from drakeslip.spatial.families import DIFFICULTY, HEIGHT_MAP_FAMILIES, height_m
 from drakeslip.spatial.heightmap import HeightMap, load_height_map
 from drakeslip.spatial.state import check_apex3d
 from drakeslip.units import PAPER
-from planners.formats.suite import PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS, START_X, required_field
+from planners.formats.suite import PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS, START_X, known_fields, required_field
 from planners.formats.suite_draw import suite_scales
 from planners.spatial_loop import MapCase
 
@@ -199,6 +199,7 @@ def map_suite_from_dict(d, source: str = "map suite", folder=None) -> MapSuite:
     if fmt != MAP_SUITE_FORMAT:
         raise ValueError(f"{source}: format must be {MAP_SUITE_FORMAT!r}, got {fmt!r}")
     name = check_name(required_field(d, "name", source), f"{source}: name")
+    known_fields(d, ("format", "name", "goal", "friction", "hopper", "cases"), source)
     goal = read_point(required_field(d, "goal", source), f"{source}: goal")
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
     hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
@@ -211,6 +212,7 @@ def map_suite_from_dict(d, source: str = "map suite", folder=None) -> MapSuite:
     for i, c in enumerate(raw_cases):
         where = f"{source}: cases[{i}]"
         case_id = check_name(required_field(c, "id", where), f"{where}.id")
+        known_fields(c, ("id", "map", "apex", "goal"), where)
         if any(case.id == case_id for case in cases):
             raise ValueError(f"{where}.id must be unique, got {case_id!r} again")
         height_map, record = read_map(required_field(c, "map", where), f"{where}.map", folder, maps)

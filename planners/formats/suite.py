@@ -86,6 +86,14 @@ def save_suite(suite: Suite, path) -> None:
         json.dump(suite.to_dict(), f)
 
 
+def known_fields(d: dict, fields: tuple, where: str) -> None:
+    """ValueError naming the first key of the object ``d`` that is not one of ``fields``: a field the reader does not
+    know would be ignored without a word (a case's own goal_x, a misspelt one)."""
+    unknown = [key for key in d if key not in fields]
+    if unknown:
+        raise ValueError(f"{where}: unknown field {unknown[0]!r} (the fields are {', '.join(fields)})")
+
+
 def required_field(d, key, where):
     """``d[key]``, or a ValueError naming ``where`` when d is not an object or lacks the key (for JSON files)."""
     if not isinstance(d, dict):
@@ -101,6 +109,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     if fmt != SUITE_FORMAT:
         raise ValueError(f"{source}: format must be {SUITE_FORMAT!r}, got {fmt!r}")
     name = check_name(required_field(d, "name", source), f"{source}: name")
+    known_fields(d, ("format", "name", "goal_x", "friction", "hopper", "cases"), source)
     goal_x = check_number(required_field(d, "goal_x", source), f"{source}: goal_x", bound=POSITION)
     friction = check_number(required_field(d, "friction", source), f"{source}: friction", bound=FRICTION)
     hopper = hopper_from_record(d["hopper"], f"{source}: hopper") if "hopper" in d else None
@@ -112,6 +121,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
     for i, c in enumerate(raw_cases):
         where = f"{source}: cases[{i}]"
         case_id = check_name(required_field(c, "id", where), f"{where}.id")
+        known_fields(c, ("id", "terrain", "apex"), where)
         if case_id in ids:
             raise ValueError(f"{where}.id must be unique, got {case_id!r} again")
         ids.add(case_id)
@@ -119,6 +129,7 @@ def suite_from_dict(d, source: str = "suite") -> Suite:
         x0 = check_number(required_field(t, "x0", f"{where}.terrain"), f"{where}.terrain.x0", bound=TERRAIN_START)
         cell = check_number(required_field(t, "cell", f"{where}.terrain"), f"{where}.terrain.cell", bound=CELL)
         heights = required_field(t, "heights", f"{where}.terrain")
+        known_fields(t, ("x0", "cell", "heights", "ditch_height"), f"{where}.terrain")
         if not isinstance(heights, list) or not heights:
             raise ValueError(f"{where}.terrain.heights must be a non-empty list of numbers")
         ditch_height = check_number(t["ditch_height"], f"{where}.terrain.ditch_height", bound=POSITION) \
