@@ -30,7 +30,8 @@ import tomllib
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from drakeslip.jobs.files import MANIFEST, atomic_write, first_line, manifest_entries, read_json, record_digest, sha256
+from drakeslip.jobs.files import (MANIFEST, atomic_write, first_line, known_fields, manifest_entries, read_json,
+                                  record_digest, sha256)
 from drakeslip.apex_correction import ApexCorrection
 from drakeslip.params import RobotTemplate, SlipParams, check_name, check_number
 from drakeslip.units import HopperUnits
@@ -111,9 +112,7 @@ def hopper_from_dict(d, source: str, default_name: str, folder: Path | None = No
     makes the params a ``RobotTemplate``."""
     if not isinstance(d, dict):
         raise ValueError(f"{source} must hold a table of fields, got {type(d).__name__}")
-    unknown = [key for key in d if key not in FIELDS]
-    if unknown:
-        raise ValueError(f"{source}: unknown field {unknown[0]!r} (the fields are {', '.join(FIELDS)})")
+    known_fields(d, FIELDS, source)
     if "format" in d and d["format"] != HOPPER_FORMAT:
         raise ValueError(f"{source}: format must be {HOPPER_FORMAT!r}, got {d['format']!r}")
     name = check_name(d.get("name", default_name), f"{source}: name")
@@ -242,9 +241,7 @@ def hopper_from_record(record, where: str) -> NamedHopper:
         raise ValueError(f"{where}.sha256 must be a string or null, got {digest!r}")
     if not isinstance(params, dict):
         raise ValueError(f"{where}.params must be an object, got {type(params).__name__}")
-    unknown = [key for key in params if key not in PARAM_FIELDS]
-    if unknown:
-        raise ValueError(f"{where}.params: unknown field {unknown[0]!r} (the fields are {', '.join(PARAM_FIELDS)})")
+    known_fields(params, PARAM_FIELDS, f"{where}.params")
     return NamedHopper(params_from_fields(params, f"{where}.params"), name, digest)
 
 

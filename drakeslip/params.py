@@ -39,10 +39,13 @@ def shown(value) -> str:
     return text if len(text) <= 40 else f"{text[:16]}... ({len(value if isinstance(value, str) else text)} characters)"
 
 
-def check_count(value, name: str, low: int = 1) -> int:
-    """``value`` as an int if it is an integer (Python or numpy, not a boolean) of at least ``low``; else ValueError."""
+def check_count(value, name: str, low: int = 1, high: int | None = None) -> int:
+    """``value`` as an int if it is an integer (Python or numpy, not a boolean) of at least ``low`` and, where given,
+    at most ``high``; else ValueError."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral) or value < low:
         raise ValueError(f"{name} must be an integer of at least {low}, got {shown(value)}")
+    if high is not None and value > high:
+        raise ValueError(f"{name} must be an integer from {low} to {high}, got {shown(value)}")
     return int(value)
 
 

@@ -11,7 +11,7 @@ import numpy as np
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.bounds import HORIZON, POSITION
-from drakeslip.params import check_count, check_number, shown
+from drakeslip.params import check_count, check_number
 from drakeslip.spatial.heightmap import HeightMap
 from drakeslip.state import check_apex
 from drakeslip.terrain import WINDOW_AHEAD
@@ -148,14 +148,6 @@ MAX_NODES = 10_000_000
 MAX_ODE_CALLS = 100 * MAX_NODES
 
 
-def check_limit(value, name: str, high: int, low: int = 1) -> int:
-    """``value`` as an int if it is an integer from ``low`` to ``high`` (a budget's limit); else ValueError naming
-    ``name`` and the value."""
-    if check_count(value, name, low) > high:
-        raise ValueError(f"{name} must be an integer from {low} to {high}, got {shown(value)}")
-    return int(value)
-
-
 @dataclass(frozen=True)
 class Budget:
     """Termination conditions. A search attempt stops after ``max_nodes`` node expansions or ``max_ode_calls``
@@ -169,9 +161,10 @@ class Budget:
     max_time_s: float = 60.0
 
     def __post_init__(self):
-        object.__setattr__(self, "max_nodes", check_limit(self.max_nodes, "max_nodes", MAX_NODES))
+        object.__setattr__(self, "max_nodes", check_count(self.max_nodes, "max_nodes", high=MAX_NODES))
         if self.max_ode_calls is not None:
-            object.__setattr__(self, "max_ode_calls", check_limit(self.max_ode_calls, "max_ode_calls", MAX_ODE_CALLS))
+            object.__setattr__(self, "max_ode_calls",
+                               check_count(self.max_ode_calls, "max_ode_calls", high=MAX_ODE_CALLS))
         object.__setattr__(self, "max_time_s", check_number(self.max_time_s, "max_time_s (seconds)", positive=True))
 
 

@@ -76,6 +76,14 @@ def parse_json(text: str, what: str):
         raise ValueError(f"{what} is nested too deeply to read as JSON") from None
 
 
+def known_fields(d: dict, fields, where: str) -> None:
+    """ValueError naming the first key of the JSON object ``d`` that is not one of ``fields``: a field the reader does
+    not know would be ignored without a word (a suite case's own goal_x, a misspelt one)."""
+    unknown = [key for key in d if key not in fields]
+    if unknown:
+        raise ValueError(f"{where}: unknown field {unknown[0]!r} (the fields are {', '.join(fields)})")
+
+
 def read_jsonl_cache(path, key_of, value_of, skipped: list | None = None) -> dict:
     """{key_of(entry): value_of(entry)} over the JSON lines of ``path`` (empty if it does not exist). A resumable
     job appends one line per finished item; a line cut short by a kill, one that is not UTF-8 JSON, or one that

@@ -37,13 +37,13 @@ import numpy as np
 
 from drakeslip.bounds import APEX_HEIGHT, APEX_SPEED, FRICTION, POSITION, SPEED
 from drakeslip.hopper_file import NamedHopper, hopper_from_record, paper_hopper
-from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.jobs.files import atomic_write, known_fields, read_json
 from drakeslip.params import SlipParams, check_count, check_name, check_number
 from drakeslip.spatial.families import DIFFICULTY, HEIGHT_MAP_FAMILIES, height_map_family
 from drakeslip.spatial.heightmap import HeightMap, load_height_map
 from drakeslip.spatial.state import check_apex3d
 from drakeslip.units import PAPER
-from planners.formats.suite import PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS, START_X, known_fields, required_field
+from planners.formats.suite import PAPER_HEIGHTS, PAPER_SPEEDS, PAPER_TERRAINS, START_X, required_field
 from planners.formats.suite_draw import suite_scales
 from planners.spatial_loop import MapCase
 

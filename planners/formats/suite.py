@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from drakeslip import ApexState, SlipParams, Terrain
 from drakeslip.hopper_file import NamedHopper, hopper_from_record
-from drakeslip.jobs.files import atomic_write, read_json
+from drakeslip.jobs.files import atomic_write, known_fields, read_json
 from drakeslip.bounds import CELL, FRICTION, POSITION, TERRAIN_START
 from drakeslip.params import check_name, check_number
 from drakeslip.state import APEX_BOUNDS, check_start
@@ -84,14 +84,6 @@ def save_suite(suite: Suite, path) -> None:
     """Write atomically (temporary file, then rename)."""
     with atomic_write(path, "w") as f:
         json.dump(suite.to_dict(), f)
-
-
-def known_fields(d: dict, fields: tuple, where: str) -> None:
-    """ValueError naming the first key of the object ``d`` that is not one of ``fields``: a field the reader does not
-    know would be ignored without a word (a case's own goal_x, a misspelt one)."""
-    unknown = [key for key in d if key not in fields]
-    if unknown:
-        raise ValueError(f"{where}: unknown field {unknown[0]!r} (the fields are {', '.join(fields)})")
 
 
 def required_field(d, key, where):

@@ -21,7 +21,8 @@ from planners.core.spatial_model import view_of
 from planners.core.spatial_sampled import SpatialSampledExpansion
 from planners.search.spatial_problem import SpatialProblem, spatial_problem
 from planners.search.spatial_step import (NOMINAL, SPACING, SpatialExpansion, SpatialStepSettings,
-                                          grid_of, grid_spacings, levels, run_searches, scoring_of, warm_up)
+                                          check_fast_step_map, grid_of, grid_spacings, levels, run_searches,
+                                          scoring_of, warm_up)
 from planners.search.tree import CostWeights
 
 
@@ -83,8 +84,7 @@ def plan_guided(problem: SpatialProblem, settings: SpatialStepSettings, model_pa
 def plan_on_map(planner, apex, height_map, goal, params, tiers, grid_fallback: bool, budget: Budget) -> Plan:
     """A learned planner's plan on a height map (module doc), timed as ``Planner.plan`` times a plan."""
     t0 = time.perf_counter()
-    if getattr(planner, "step_map", "fast") != "fast":   # the compiled core flies every hop on a map
-        raise ValueError(f"the {planner.name!r} planner plans on a height map without step_map='drake'")
+    check_fast_step_map(planner)
     model_path = getattr(planner, "map_model", None) or SPATIAL_WEIGHTS
     try:   # loaded once a process: a plan of a few milliseconds does not read the disk
         spatial_model(str(model_path))

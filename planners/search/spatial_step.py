@@ -45,6 +45,13 @@ RELAXED_SIGMAS = 1.0
 MAP_ROBUSTNESS = ("noise", "sigmas", "friction_loss")   # the Robustness fields the map search reads
 
 
+def check_fast_step_map(planner) -> None:
+    """ValueError in one line unless ``planner`` flies its hops on the compiled step map: on a map the compiled core
+    flies every hop, and the Drake step map is a planar option."""
+    if getattr(planner, "step_map", "fast") != "fast":
+        raise ValueError(f"the {planner.name!r} planner plans on a height map without step_map='drake'")
+
+
 def check_map_robustness(robustness: Robustness | None) -> None:
     """ValueError, in one line, naming each field of ``robustness`` other than MAP_ROBUSTNESS that differs from
     ``Robustness()``'s: those are the planar robust search's (``planners.search.robust``), and on a map they would be

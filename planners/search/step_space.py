@@ -17,7 +17,7 @@ from drakeslip.params import check_count, check_number, shown
 from drakeslip.stepmap import STEP_MAP_BACKENDS
 from drakeslip.units import HopperUnits, units_of
 
-from planners.base import MAX_NODES, Budget, Plan, Planner, Problem, check_limit
+from planners.base import MAX_NODES, Budget, Plan, Planner, Problem
 from planners.core.grid import (GridExpansion, GridSettings, Reach, aim_candidates, children_of, grid_candidates,
                                 reach_bounds)
 from planners.search.pruned import MAX_NODES as PRUNED_NODES
@@ -26,7 +26,7 @@ from planners.core.robust import no_check
 from planners.search.loop import search
 from planners.search.robust import LOOKAHEAD_ANGLES, Robustness
 from planners.search.spatial_problem import spatial_problem
-from planners.search.spatial_step import SpatialStepSettings, plan_step_space
+from planners.search.spatial_step import SpatialStepSettings, check_fast_step_map, plan_step_space
 from planners.search.tree import (DISTANCES, EDGE_MARGIN, FRICTION_MARGIN, ISOLATION_AT_FAILURE, MIN_SPEED,
                                   REACH_ANGLES, Attempts, CostWeights, SearchResult, check_options, check_weights)
 
@@ -119,7 +119,7 @@ class StepSpacePlanner(Planner):
         self.min_speed, self.edge_margin = check_options(min_speed, edge_margin)
         self.n_sequences = check_count(n_sequences, "n_sequences")
         self.cost_weights = check_weights(cost_weights)
-        self.pruned_nodes = check_limit(pruned_nodes, "pruned_nodes", MAX_NODES, low=0)
+        self.pruned_nodes = check_count(pruned_nodes, "pruned_nodes", low=0, high=MAX_NODES)
         if last_resort_margin is not None and not 0 <= check_number(last_resort_margin, "last_resort_margin") < 1:
             raise ValueError(f"last_resort_margin must be in [0, 1) or None, got {shown(last_resort_margin)}")
         self.last_resort_margin = last_resort_margin
@@ -148,8 +148,7 @@ class StepSpacePlanner(Planner):
         its planar fields are refused, ``spatial_step.check_map_robustness``) and safe hops; the Drake step map, a
         planar option, is refused in one line."""
         t0 = time.perf_counter()
-        if self.step_map != "fast":
-            raise ValueError(f"the {self.name!r} planner plans on a height map without step_map='drake'")
+        check_fast_step_map(self)
         problem = spatial_problem(apex, height_map, goal, params, self.horizon, t0, self.budget.max_time_s)
         settings = SpatialStepSettings(self.spacing, self.fallback_spacing, self.tolerance, self.edge_margin,
                                        self.min_speed, self.cost_weights, self.n_sequences,
