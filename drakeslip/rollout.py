@@ -218,9 +218,10 @@ def _multibody(draw, start, terrain, params, command: _Commands, hops, options: 
     apex_errors = None if command.apex_errors is None else command.apex_errors[draw]
     angle_errors = None if command.angle_errors is None else command.angle_errors[draw]
     known = options.model
-    hops = execute(start, terrain, footholds, RobotParams(slip=params), sensed_terrain=command.terrain,
+    robot = RobotParams.for_hopper(params if known is None else known)   # built around the model's hopper
+    hops = execute(start, terrain, footholds, robot.with_slip(params), sensed_terrain=command.terrain,
                    apex_errors=apex_errors, angle_errors=angle_errors, trajectory=options.log,
-                   max_time=options.max_time, known=None if known is None else RobotParams(slip=known))
+                   max_time=options.max_time, known=None if known is None else robot)
     failure = hops.failure
     return Rollout(list(hops.footholds), list(hops.apexes), list(hops.leg_angles),
                    None if failure is None else failure.mode, -1 if failure is None else failure.hop,

@@ -87,7 +87,8 @@ def arguments() -> cli.ArgumentParser:
                          "map, or the multibody robot (drakeslip/multibody: one closed-loop Diagram per case)")
     ap.add_argument("--template", type=cli.input_file, default=None,
                     help="multibody backend: the template hopper file the planners plan for (default: the one fitted "
-                         "to the robot, drakeslip/multibody/template.json; drakeslip/multibody/template_corrected.json "
+                         "to the paper's hopper's robot, drakeslip/multibody/template.json, whose fit another hopper's "
+                         "robot takes as factors; drakeslip/multibody/template_corrected.json, the paper's only, "
                          "adds the learned correction of its apex-to-apex map, examples/fit_correction.py); on a map "
                          "suite, a spatial template fit (examples/fit_template.py --robot spatial; default: the "
                          "hopper's own SLIP)")
@@ -184,10 +185,11 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
         if maps:
             check_map_run(configs)
             template = map_template(ap, args, hopper)
-        if args.backend == "multibody" and not maps:
-            from drakeslip.multibody.robot import check_robot_hopper
+        template = next(iter(configs.values())).template
+        if args.backend == "multibody" and not maps and template is not None:
+            from drakeslip.multibody.fit import template_for
 
-            check_robot_hopper(hopper, f"suite file {args.suite}")
+            template_for(hopper.params, template)   # refused where it cannot be the robot's
         specs = hopper_specs(specs, hopper)
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
         if maps:

@@ -73,7 +73,8 @@ def run(planner: str, goal_x: float, start=(0.0, 0.62, 1.5), seconds: float = 6.
     from pydrake.systems.analysis import Simulator
     from pydrake.systems.framework import EventStatus
 
-    from drakeslip.multibody.controller import RETRACT, Phase
+    from drakeslip.multibody.controller import Phase
+    from drakeslip.multibody.gains import RETRACT
 
     diagram, plant, controller, planner_system = build(planner, two_ditches(), goal_x, meshcat)
     simulator = Simulator(diagram)

@@ -125,10 +125,6 @@ def checked_inputs(ap: cli.ArgumentParser, args):
     hopper = args.hopper or paper_hopper()
     try:
         check_label(args.planner)
-        if args.backend == "multibody":
-            from drakeslip.multibody.robot import check_robot_hopper
-
-            check_robot_hopper(hopper, "--hopper")
         ground = args.terrain if isinstance(args.terrain, str) else args.terrain.terrain
         suite = one_case(ground, args.seed, hopper, args.speed, args.height, args.goal, args.start_x)
         params = hopper.params.with_friction(args.friction or hopper.params.friction)
@@ -185,16 +181,18 @@ def main(argv=None) -> int:
 
 def hop_robot(planner, terrain, apex, params, config, args) -> int:
     """The multibody robot in its closed-loop Diagram: print the plans, draw the run, write the replay."""
+    from dataclasses import replace
     from types import SimpleNamespace
 
-    from drakeslip.multibody.fit import fitted_template
+    from drakeslip.multibody.fit import fitted_template, template_for
     from drakeslip.multibody.replay import plot_robot_run, write_robot_replay
+    from drakeslip.multibody.robot import RobotParams
     from planners.drake_system import run_closed_loop
 
-    template = fitted_template()
-    template = params if template is None else template.with_friction(params.friction)
+    template = fitted_template()   # the robot of the hopper, planned for with its fitted template
+    template = params if template is None else template_for(params, template)
     result = run_closed_loop(planner, SimpleNamespace(id="demo", terrain=terrain, apex=apex), args.goal, template,
-                             config, trajectory=True)
+                             replace(config, robot=RobotParams.for_hopper(params)), trajectory=True)
     log = result["log"]
     for i, p in enumerate(result["plans"]):
         print(f"plan {i}: from x={p['apex'][0]:.2f}: {' '.join(f'{x:.2f}' for x in p['footholds']) or p['message']}")

@@ -75,7 +75,7 @@ def checked_plan(ap: cli.ArgumentParser, args):
     if args.map_filter != 1 and args.noise.silent:   # a silent profile senses the map exactly: nothing to filter
         ap.error(f"--map-filter {args.map_filter} filters the map a noisy robot senses: give --noise")
 
-    from drakeslip.hopper_file import check_same_hopper, hopper_for
+    from drakeslip.hopper_file import check_same_hopper
     from drakeslip.jobs.files import read_json
     from planners.formats.map_plan import is_map_plan, load_map_plan
     from planners.formats.plan import load_plan
@@ -85,10 +85,6 @@ def checked_plan(ap: cli.ArgumentParser, args):
         record = load_map_plan(args.plan) if on_map else load_plan(args.plan)
         if args.hopper is not None:
             check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
-        if args.backend == "multibody" and not on_map:   # the spatial robot is built for any hopper
-            from drakeslip.multibody.robot import check_robot_hopper
-
-            check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
         if args.hops is not None and args.hops > len(record.footholds):
             raise ValueError(f"--hops {args.hops} is more than the plan's {len(record.footholds)} hops")
     except (OSError, ValueError) as error:
@@ -144,7 +140,7 @@ def drawn(args, record) -> dict:
         from planners.replanning import robot_record
 
         document["robot"] = robot_record(SpatialRobotParams.for_hopper(record.params) if on_map else
-                                         RobotParams(slip=record.params))
+                                         RobotParams.for_hopper(record.params))
     if args.drake:
         document["drake_agreement"] = {"n": confirmation.n, "agreement": confirmation.agreement}
     return document

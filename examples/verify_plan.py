@@ -89,17 +89,13 @@ def checked_plan(ap: cli.ArgumentParser, args):
     if args.backend == "multibody" and (args.plot or args.html):
         ap.error("--plot and --html draw the SLIP's run: use them with --backend drake")
 
-    from drakeslip.hopper_file import check_same_hopper, hopper_for
+    from drakeslip.hopper_file import check_same_hopper
     from planners.formats.plan import load_plan
 
     try:
         record = load_plan(args.plan)
         if args.hopper is not None:
             check_same_hopper(args.hopper, record.params, f"plan file {args.plan}")
-        if args.backend == "multibody":
-            from drakeslip.multibody.robot import check_robot_hopper
-
-            check_robot_hopper(record.hopper or hopper_for(record.params), f"plan file {args.plan}")
         if args.terrain is not None:
             record = replace(record, terrain=covering(args.terrain.terrain, record, args.terrain.path))
         if args.mode == "angles" and not all(abs(a) < 1.5707963 for a in record.leg_angles):

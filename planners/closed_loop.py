@@ -76,15 +76,19 @@ def _run_on_template(planner, controller, case, goal_x: float, params: SlipParam
 
 
 def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
-    """The loop on the multibody robot (``planners.drake_system.run_closed_loop``), planning for the template
-    ``config.template`` where the robot is the default one, the hopper ``params`` itself otherwise."""
+    """The loop on the multibody robot (``planners.drake_system.run_closed_loop``): the robot of the hopper
+    ``params`` (``RobotParams.for_hopper``) planned for with ``config.template`` (fitted to the paper's hopper's
+    robot) made that robot's (``drakeslip.multibody.fit.template_for``); a robot of the config's own is planned
+    for with ``params`` itself."""
+    from drakeslip.multibody.fit import template_for
     from drakeslip.multibody.robot import RobotParams
     from planners.drake_system import run_closed_loop
 
-    # a template fitted to the default robot (built around the paper's hopper) is its template only
-    fitted_robot = params.with_friction(SlipParams().friction) == SlipParams() and config.robot is None
-    template = config.template.with_friction(params.friction) if config.template and fitted_robot else params
-    robot = RobotParams(slip=params) if config.robot is None else config.robot
+    if config.robot is None:
+        robot = RobotParams.for_hopper(params)
+        template = template_for(params, config.template) if config.template else params
+    else:
+        robot, template = config.robot, params
     result = run_closed_loop(planner, case, goal_x, template, replace(config, robot=robot))
     result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
     return result

@@ -275,7 +275,7 @@ def simulate_closed_loop(hd: HopperDiagram, case, goal_x: float, max_hops: int, 
     angle = hd.controller.raibert_angle(apex.xdot, first.speed) if not first.footholds else touchdown_angle(
         apex.x, apex.z, apex.xdot, 0.0, first.footholds[0], first.terrain.height_at(first.footholds[0]),
         HeldLeg(robot.rest_extension, robot.foot_radius, robot.slip.gravity))
-    set_apex_state(hd, context, apex, angle, loss_prior(apex.xdot))
+    set_apex_state(hd, context, apex, angle, loss_prior(apex.xdot, robot.slip))
     monitor = _GoalMonitor(hd, case.terrain, context, max_hops, goal_x, trajectory)
     simulator.set_monitor(monitor)
     if hd.visualizer is not None:

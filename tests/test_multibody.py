@@ -43,7 +43,7 @@ def test_the_controller_and_the_monitor_take_the_robots_geometry_from_its_model(
     time in the hopper's time units (the paper's hopper's to the bit)."""
     from pydrake.geometry import Role
 
-    from drakeslip.multibody.controller import STANCE_TIME, stance_time
+    from drakeslip.multibody.gains import STANCE_TIME, stance_time
     from drakeslip.multibody.diagram import build_diagram
     from drakeslip.multibody.failures import HopMonitor
     from drakeslip.multibody.robot import model_geometry

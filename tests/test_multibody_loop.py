@@ -64,7 +64,7 @@ def test_the_planner_system_keeps_its_noise_and_records_in_the_context():
 
 
 def test_the_pump_asks_for_energy_where_the_foot_cannot_swing_through_under_the_apex():
-    from drakeslip.multibody.controller import STANCE_TIME
+    from drakeslip.multibody.gains import STANCE_TIME
     from drakeslip.multibody.pump import EnergyPump
 
     pump, flat = EnergyPump(0.5, 0.15, 0.02, STANCE_TIME), ds.Terrain.flat()

@@ -67,16 +67,11 @@ def make_files(tmp: Path) -> None:
 
 # (script, arguments, exit status, text the one line of stderr holds); {tmp} is the folder holding the files
 PROBES = [
-    # 1. the multibody robot is the paper's hopper's
-    ("evaluate", ["--suite", "{tmp}/mine-suite.json", "--backend", "multibody", "--planners", "heuristic", "--out",
-                  "{tmp}/r.json"], 2, "built for the paper's hopper (7 kg, L0 0.5 m, 3200 N/m, stroke 0.4), not for "
-                                      "hopper 'mine' (3 kg, L0 0.3 m, 1000 N/m, stroke 0.4) from suite file"),
-    ("plan_and_hop", ["--hopper", "{tmp}/mine.json", "--backend", "multibody", "--out", "{tmp}/x.png"], 2,
-     "not for hopper 'mine' (3 kg, L0 0.3 m, 1000 N/m, stroke 0.4) from --hopper"),
-    ("verify_plan", ["--plan", "{tmp}/mine-plan.json", "--backend", "multibody"], 2,
-     "not for hopper 'mine' (3 kg, L0 0.3 m, 1000 N/m, stroke 0.4) from plan file"),
-    ("robustness", ["--plan", "{tmp}/mine-plan.json", "--backend", "multibody"], 2,
-     "not for hopper 'mine' (3 kg, L0 0.3 m, 1000 N/m, stroke 0.4) from plan file"),
+    # 1. the multibody robot is built for any hopper; the learned correction of its template is the paper's robot's
+    ("evaluate", ["--suite", "{tmp}/mine-suite.json", "--backend", "multibody", "--planners", "heuristic",
+                  "--template", "drakeslip/multibody/template_corrected.json", "--out", "{tmp}/r.json"], 2,
+     "the template's learned correction is the paper's hopper's robot's; the robot of a 3 kg, 0.3 m hopper plans "
+     "for its fitted template"),
     # 2. a hopper folder holds what its manifest lists, and nothing unlisted
     ("plan_and_hop", ["--hopper", "{tmp}/missing-weights"], 2,
      "hopper folder {tmp}/missing-weights: lstm_expert.pt, listed in its SHA256SUMS, is missing"),
@@ -138,14 +133,16 @@ def test_an_edge_of_the_input_gets_one_line_and_its_status(files, run_script, sc
         assert len(err) < 2000 and "reproduce with" not in out + err   # refused before the run was announced
 
 
-def test_the_library_refuses_the_robot_for_another_hopper(files):
+def test_the_library_refuses_the_paper_robots_correction_for_another_hopper(files):
+    from drakeslip.hopper_file import load_hopper
     from planners.closed_loop import ClosedLoopConfig
     from planners.formats.suite import load_suite
     from verification.evaluation import evaluate
 
-    with pytest.raises(ValueError, match="not for hopper 'mine'"):
+    corrected = load_hopper(ROOT / "drakeslip" / "multibody" / "template_corrected.json").params
+    with pytest.raises(ValueError, match="learned correction is the paper's hopper's robot's"):
         evaluate(load_suite(files / "mine-suite.json"), {"heuristic": None}, progress=False,
-                 config=ClosedLoopConfig(backend="multibody"))
+                 config=ClosedLoopConfig(backend="multibody", template=corrected))
 
 
 # ---- 4. damaged cache lines ---------------------------------------------------------------------------------

@@ -188,10 +188,12 @@ def evaluate(suite: Suite | MapSuite, specs: dict, n_cases: int | None = None, e
     configs = config if isinstance(config, dict) else {label: config for label in specs}
     if isinstance(suite, MapSuite):
         check_map_run({label: configs[label] for label in specs})
-    elif any(c.backend == "multibody" for c in configs.values()):   # the robot is the paper's hopper's only
-        from drakeslip.multibody.robot import check_robot_hopper
+    else:   # the robot of any hopper; a template with the paper's robot's learned correction is that robot's only
+        from drakeslip.multibody.fit import template_for
 
-        check_robot_hopper(suite_hopper(suite), f"suite {suite.name!r}")
+        for c in configs.values():
+            if c.backend == "multibody" and c.template is not None:
+                template_for(suite_hopper(suite).params, c.template)
     if {c.refine for c in configs.values()} != {next(iter(configs.values())).refine}:
         raise ValueError("every planner of a run shares the controller: give them all the same refine")
     setup = worker_setup(specs, controller_path, next(iter(configs.values())).refine)

@@ -7,7 +7,8 @@ plan's apexes have). Contact is inferred from the leg's compression, never from 
 ``actuation`` is (hip torque, leg force), inside the motor's torque-speed envelope and the leg actuator's force
 limit, applied one control period after the measurement it comes from.
 
-Phases (``Phase``, the discrete state's ``phase``): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` and,
+Phases (``Phase``, the discrete state's ``phase``; the constants are ``drakeslip.multibody.gains``', in the hopper's
+units): ASCENT, from liftoff to apex: the leg retracts ``RETRACT`` and,
 until the foot is ``CLEARANCE`` above the ground, swings back under the hip's advance so that the foot rises where it
 stood (dragged forward, a foot near a step's face catches it and kicks the leg and body round); then it swings to
 the neutral angle (half the stance's travel ahead, Raibert's), where it waits for the footholds the planner chooses
@@ -33,10 +34,9 @@ from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
+from drakeslip.multibody.gains import BIAS_GAIN, FRICTION_SHARE, LANDING_SWING_SHARE, control_constants
 from drakeslip.multibody.robot import RobotParams, StateLayout, model_geometry
-from drakeslip.params import SlipParams
 from drakeslip.terrain import Terrain
-from drakeslip.units import units_of
 
 
 class Phase(enum.IntEnum):
@@ -55,29 +55,6 @@ ControlState = namedview("ControlState", ["phase", "step", "stamp", "apexes", "b
 # What the robot senses: the body's x, z and pitch, the hip angle and the leg extension, and their rates.
 Sensed = namedview("Sensed", ["x", "z", "pitch", "hip", "leg", "xd", "zd", "pitchd", "hipd", "legd"])
 
-CLEARANCE = 0.03          # [m] the foot's height above the ground before the leg swings forward after liftoff
-RETRACT = 0.04            # [m] leg retraction in ascent: clears the ground the foot just left
-TOUCHDOWN_COMPRESSION = 0.003   # [m] compression (leg moving in) that says the foot touched down
-TOUCHDOWN_RATE = -0.2     # [m/s] ... and the leg's rate at that moment (extension in flight is positive)
-LIFTOFF_MARGIN = 0.002    # [m] the leg within this of its stop after MIN_STANCE says the foot left the ground
-MIN_STANCE = 0.03         # [s]
-BIAS_GAIN = 0.5           # share of an apex's energy error learned into the bias
-FLIGHT_GAINS = (150.0, 6.0)    # hip PD on the absolute leg angle in flight [N m/rad, N m s/rad]
-STANCE_GAINS = (100.0, 60.0)   # hip PD in stance on the body pitch and on the angular momentum (as a rate)
-LEG_GAINS = (3000.0, 40.0)     # leg PD on extension in flight [N/m, N s/m] (the spring is cancelled)
-FRICTION_SHARE = 0.4      # in stance the hip torque asks for at most this share of the friction cone
-# [s] the paper's hopper's stance, about half its body-on-spring period pi sqrt(m / k); a hopper's own is this in
-# its time units (``stance_time``)
-STANCE_TIME = 0.15
-# Landing on a foothold: the leg swings back at this share of the body's forward speed (as the rate of its angle),
-# the hip leading it by the swing still to come, at most LANDING_SWING_TIME's; the foot lands at 0.8 of the body's
-# speed (tests/test_multibody.py). A foot landing at the body's speed slides before the leg's force holds it; the
-# faster the leg swings back as it lands, the less a hop that lands far ahead brakes than the template's, and the
-# robot reaches its next apex faster and farther than planned, where the planner may have no plan (docs/multibody.md)
-LANDING_SWING_SHARE = 0.25
-LANDING_SWING_TIME = 0.06   # [s]
-LIFT_DAMPING = 6.0        # [N m s/rad] the hip's gain on the leg's rate while the foot rises where it stood
-SPEED_GAIN = 0.08         # [m per m/s] Raibert's foot-placement gain on the speed error
 
 
 class Heights:
@@ -167,11 +144,6 @@ def motor_torque(torque: float, speed: float, params: RobotParams) -> float:
     return max(-limit, min(limit, torque))
 
 
-def stance_time(params: SlipParams) -> float:
-    """The stance of the hopper ``params`` [s]: STANCE_TIME in its time units (``drakeslip.units``)."""
-    return STANCE_TIME * units_of(params).time
-
-
 def neutral_angle(xdot: float, leg_length: float, stance: float, offset: float = 0.0) -> float:
     """The leg angle that puts the foot at the neutral point, half the ``stance`` [s] travel ahead of the hip at
     forward speed ``xdot``, plus ``offset`` [m]: where the leg waits through the apex in flight."""
@@ -213,11 +185,12 @@ class HopperController(LeafSystem):
         self._sensed = list(layout.q) + list(layout.v)
         geometry = model_geometry(params)
         self.leg_com, self.leg_inertia = geometry.leg_com, geometry.leg_inertia
-        self.stance_time = stance_time(params.slip)
+        self.scaled = control_constants(params.slip)   # the gains and thresholds in this hopper's units
+        self.stance_time = self.scaled.stance_time
         self.pitch_inertia = params.body_pitch_inertia
         self.foot_share = params.foot_mass / params.slip.mass
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
-        leg_inertia = swing_inertia(params, params.rest_extension - RETRACT, self.leg_com, self.leg_inertia)
+        leg_inertia = swing_inertia(params, params.rest_extension - self.scaled.retract, self.leg_com, self.leg_inertia)
         self.swing_ratio = leg_inertia / params.body_pitch_inertia
         self.state_port = self.DeclareVectorInputPort("state", max(layout.v) + 1)
         empty = FootholdCommand((), Terrain.flat(), None, -1)
@@ -246,7 +219,8 @@ class HopperController(LeafSystem):
     def raibert_angle(self, xdot: float, speed: float) -> float:
         """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
         plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
-        return neutral_angle(xdot, self.params.slip.leg_length, self.stance_time, SPEED_GAIN * (xdot - speed))
+        return neutral_angle(xdot, self.params.slip.leg_length, self.stance_time,
+                             self.scaled.speed_gain * (xdot - speed))
 
     def _update(self, context, discrete_state):
         s = ControlState(discrete_state.get_mutable_vector(self.control_state).get_mutable_value())
@@ -282,12 +256,14 @@ class HopperController(LeafSystem):
                 s.bias += BIAS_GAIN * (s.target - energy)
             s.target = command.energy if command.energy is not None else energy
             return Phase.DESCENT
-        if phase == Phase.DESCENT and rest - m.leg > TOUCHDOWN_COMPRESSION and m.legd < TOUCHDOWN_RATE:
+        if phase == Phase.DESCENT and rest - m.leg > self.scaled.touchdown_compression \
+                and m.legd < self.scaled.touchdown_rate:
             s.step += 1.0
             s.touchdown_x = m.x + m.leg * math.sin(m.pitch + m.hip)
             s.touchdown_angle = m.pitch + m.hip
             return Phase.STANCE
-        if phase == Phase.STANCE and t - s.phase_start > MIN_STANCE and m.leg >= rest - LIFTOFF_MARGIN:
+        if phase == Phase.STANCE and t - s.phase_start > self.scaled.min_stance \
+                and m.leg >= rest - self.scaled.liftoff_margin:
             return Phase.ASCENT
         return phase
 
@@ -298,7 +274,7 @@ class HopperController(LeafSystem):
         slip, rest, g = p.slip, p.rest_extension, p.slip.gravity
         z, xd, zd, leg, legd = m.z, m.xd, m.zd, m.leg, m.legd
         angle, angle_rate = m.pitch + m.hip, m.pitchd + m.hipd
-        kp, kd = STANCE_GAINS
+        kp, kd = self.scaled.stance_gains
         # lean against the pitch the next flight's leg swing will cause (about symmetric: -angle to +angle)
         lean = self.swing_ratio * s.touchdown_angle
         momentum = self._angular_momentum(m.pitchd, leg, legd, angle, angle_rate)
@@ -315,7 +291,7 @@ class HopperController(LeafSystem):
             # the foot, at rest on the ground, is jerked to the body's speed at liftoff: a plastic impact
             liftoff_loss = 0.5 * self.foot_share * (xd * xd + zd * zd)
             need = s.target + liftoff_loss + s.bias - energy
-            force = slip.mass * need / max(rest - leg, 0.01)
+            force = slip.mass * need / max(rest - leg, self.scaled.least_stroke)
             force = max(-0.5 * p.leg_force_limit, min(p.leg_force_limit, force))
         return torque, force
 
@@ -326,15 +302,15 @@ class HopperController(LeafSystem):
         rest, leg, legd = p.rest_extension, m.leg, m.legd
         angle, angle_rate = m.pitch + m.hip, m.pitchd + m.hipd
         target, rate = self._flight_target(s, m, command, t, phase)
-        kp, kd = FLIGHT_GAINS
-        if phase == Phase.ASCENT and self._clearance(m.x, m.z, leg, angle, target, command) < CLEARANCE:
+        kp, kd = self.scaled.flight_gains
+        if phase == Phase.ASCENT and self._clearance(m.x, m.z, leg, angle, target, command) < self.scaled.clearance:
             # the foot is leaving the ground: the leg retracts and swings back at the rate that keeps the foot
             # over the ground it left
-            kp, kd = 0.0, LIFT_DAMPING
+            kp, kd = 0.0, self.scaled.lift_damping
             rate = -(m.xd + legd * math.sin(angle)) / (leg * math.cos(angle))
         torque = kp * (target - angle) + kd * (rate - angle_rate)
-        goal = rest - RETRACT if phase == Phase.ASCENT else rest + 0.01
-        kp, kd = LEG_GAINS
+        goal = rest - self.scaled.retract if phase == Phase.ASCENT else rest + self.scaled.least_stroke
+        kp, kd = self.scaled.leg_gains
         force = kp * (goal - leg) - kd * legd - p.slip.stiffness * (rest - leg)
         force = max(-p.leg_force_limit, min(p.leg_force_limit, force))
         return torque, force
@@ -364,7 +340,7 @@ class HopperController(LeafSystem):
         # the hip leads the leg by the swing back still to come and damps it about the swing's rate, so
         # that the leg is already swinging back when the foot lands on the foothold
         rate = -LANDING_SWING_SHARE * (m.xd + exd) / (leg.reach * math.cos(target))
-        target -= rate * min(time_to_ground(m.z + ez, m.zd, target, ground, leg), LANDING_SWING_TIME)
+        target -= rate * min(time_to_ground(m.z + ez, m.zd, target, ground, leg), self.scaled.landing_swing_time)
         return target, rate
 
     def _angular_momentum(self, pitchd, leg, legd, angle, angle_rate) -> float:

@@ -8,7 +8,8 @@ import numpy as np
 from pydrake.multibody.plant import AddMultibodyPlant, MultibodyPlantConfig
 from pydrake.systems.framework import DiagramBuilder
 
-from drakeslip.multibody.controller import RETRACT, FootholdCommand, HopperController, Phase
+from drakeslip.multibody.controller import FootholdCommand, HopperController, Phase
+from drakeslip.multibody.gains import RETRACT
 from drakeslip.multibody.robot import HopperParts, RobotParams, StateLayout, add_hopper
 from drakeslip.multibody.terrain import add_terrain
 from drakeslip.state import ApexState

@@ -12,12 +12,14 @@ from drakeslip.multibody.controller import FootholdCommand, apex_energy
 from drakeslip.multibody.diagram import build_diagram, set_apex_state, set_command
 from drakeslip.multibody.failures import HopLog, HopMonitor
 from drakeslip.multibody.robot import RobotParams
+from drakeslip.params import SlipParams
 from drakeslip.simulation import advance
 from drakeslip.state import ApexState
 from drakeslip.terrain import Terrain
+from drakeslip.units import units_of
 
-# The energy per kg of body a hop loses beyond the foot's liftoff (which the controller accounts for), a + b
-# xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
+# The energy per kg of body a hop of the paper's hopper loses beyond the foot's liftoff (which the controller
+# accounts for), a + b xdot^2 [J/kg]: the controller starts from this estimate and keeps learning from each apex.
 LOSS_PRIOR = (0.10, 0.035)
 
 # The last diagram built, as (terrain, (robot, inject_energy, known), diagram): the terrain is held and compared by
@@ -33,9 +35,11 @@ def _diagram(terrain: Terrain, robot: RobotParams, inject_energy: bool, known: R
     return _last_built[0][2]
 
 
-def loss_prior(xdot: float) -> float:
+def loss_prior(xdot: float, slip: SlipParams) -> float:
+    """The hop's loss estimate (``LOSS_PRIOR``) for the hopper ``slip``: ``a`` an energy per kg, in its speed units
+    squared."""
     a, b = LOSS_PRIOR
-    return a + b * xdot * xdot
+    return a * units_of(slip).speed ** 2 + b * xdot * xdot
 
 
 # many parameters: the hops, then ``drakeslip.rollout``'s errors and options as keywords, each with a default
@@ -59,7 +63,7 @@ def execute(apex, terrain: Terrain, footholds, robot: RobotParams | None = None,
     command = FootholdCommand(footholds, sensed_terrain or terrain, None, 0, 0.0, errors,
                               () if angle_errors is None else tuple(map(float, np.ravel(angle_errors))))
     set_apex_state(hd, context, apex, _first_angle(apex, footholds, command.terrain, robot),
-                   loss_prior(apex.xdot))
+                   loss_prior(apex.xdot, robot.slip))
     set_command(hd, context, command)
     monitor = HopMonitor(hd, terrain, context, len(footholds), trajectory)
     monitor.command_footholds = footholds
@@ -88,7 +92,7 @@ def hop_at_speed(speed: float, hops: int, robot: RobotParams | None = None, apex
     context = simulator.get_mutable_context()
     apex = ApexState(0.0, apex_height, float(speed))
     command = FootholdCommand((), terrain, apex_energy(apex_height, speed, robot.slip.gravity), 0, float(speed))
-    set_apex_state(hd, context, apex, hd.controller.raibert_angle(speed, speed), loss_prior(speed))
+    set_apex_state(hd, context, apex, hd.controller.raibert_angle(speed, speed), loss_prior(speed, robot.slip))
     set_command(hd, context, command)
     monitor = HopMonitor(hd, terrain, context, hops, trajectory)
     simulator.set_monitor(monitor)

@@ -23,6 +23,8 @@ from drakeslip.state import ApexState, FailureMode
 from drakeslip.terrain import Terrain
 from drakeslip.units import units_of
 
+# The thresholds, the paper's hopper's; a hopper's own are these lengths and times in its units (``HopMonitor``),
+# as are the millimetres and centimetres of the foot's checks
 PITCH_LIMIT = 0.8      # [rad] a body pitched further than this has fallen
 SLIP_DISTANCE = 0.02   # [m] foot travel in one stance, beyond the ball's rolling, that counts as slipping
 TRIP_GRACE = 0.04      # [s] after liftoff the foot is still leaving the ground
@@ -81,7 +83,10 @@ class HopMonitor:
         p = hd.params
         self.radius, self.bottom = p.foot_radius, p.bottom_extension
         self.body_half = model_geometry(p).body_half   # half length and half height of the body box
-        self.hop_seconds = units_of(p.slip).hop_seconds   # a phase longer than this is a STALL
+        units = units_of(p.slip)
+        self.hop_seconds = units.hop_seconds   # a phase longer than this is a STALL
+        self.length, self.trip_grace, self.slip_distance = units.length, TRIP_GRACE * units.time, \
+            SLIP_DISTANCE * units.length
         self.sensed_index = list(hd.layout.q) + list(hd.layout.v)
 
     def __call__(self, root_context):
@@ -137,22 +142,23 @@ class HopMonitor:
         terrain, height = self.terrain, self.height
         angle = m.pitch + m.hip
         fx, fz = m.x + m.leg * math.sin(angle), m.z - m.leg * math.cos(angle) - self.radius
-        if m.leg <= self.bottom + 1e-3:
+        mm = 1e-3 * self.length
+        if m.leg <= self.bottom + mm:
             return FailureMode.BOTTOM_OUT, "the leg reached its bottom-out stop"
-        reach = self.radius - 2e-3   # the ball's side, less the contact's compliance
+        reach = self.radius - 2 * mm   # the ball's side, less the contact's compliance
         around = max(height(fx - reach), height(fx + reach))
         in_ditch = height(fx) <= terrain.ditch_height
-        if fz < around - 0.01 and not in_ditch:
+        if fz < around - 10 * mm and not in_ditch:
             return FailureMode.FOOT_COLLISION, f"the foot pressed into a step's face at x={fx:.2f}"
         if in_ditch:
             rim = _rim_below(terrain, fx)
-            if fz < rim - 0.02:
+            if fz < rim - 20 * mm:
                 return FailureMode.FOOT_COLLISION, f"the foot went into a ditch at x={fx:.2f}"
-        if phase == Phase.ASCENT and t - self.phase_start > TRIP_GRACE and fz < height(fx) + 1e-3:
+        if phase == Phase.ASCENT and t - self.phase_start > self.trip_grace and fz < height(fx) + mm:
             return FailureMode.TRIP, f"the swinging foot caught the ground at x={fx:.2f}"
         # the ball rolls as the leg turns over it: its centre moves r (angle at touchdown - angle) with no slip
         slide = fx - c.touchdown_x - self.radius * (c.touchdown_angle - angle)
-        if phase == Phase.STANCE and abs(slide) > SLIP_DISTANCE:
+        if phase == Phase.STANCE and abs(slide) > self.slip_distance:
             return FailureMode.SLIP, f"the foot slid {slide:+.3f} m in stance"
         return None
 
@@ -162,7 +168,7 @@ class HopMonitor:
             return FailureMode.STALL, "no hop completed"
         footholds = self.command_footholds
         if phase == Phase.DESCENT and self.phase_start == t and m.xd <= 0.0 and footholds \
-                and footholds[-1] > m.x + 0.05:
+                and footholds[-1] > m.x + 0.05 * self.length:
             return FailureMode.STALL, f"no forward speed at the apex (xdot={m.xd:+.2f} m/s)"
         return None
 

@@ -125,3 +125,21 @@ def fitted_template() -> SlipParams | None:
     from drakeslip.hopper_file import load_hopper
 
     return load_hopper(TEMPLATE_FILE).params if TEMPLATE_FILE.is_file() else None
+
+
+def template_for(hopper: SlipParams, template: SlipParams) -> SlipParams:
+    """The template the planners plan for on the robot of ``hopper`` (``RobotParams.for_hopper``), from ``template``,
+    the one fitted to the paper's hopper's robot (``TEMPLATE_FILE``), with ``hopper``'s friction: for the paper's
+    hopper ``template`` itself; for another, ``hopper`` with the fit's leg length and stiffness as factors of the
+    paper's. Every value of a hopper's robot is the paper's robot's in the hopper's units, so the factors are
+    exact for a hopper of the paper's dimensionless stiffness and friction (Froude similarity) and an estimate
+    otherwise. A template with a learned correction (``drakeslip.apex_correction.RobotTemplate``) is trained on
+    the paper's hopper's robot in its metres: ValueError for another hopper."""
+    paper = SlipParams()
+    if hopper.with_friction(paper.friction) == paper:
+        return template.with_friction(hopper.friction)
+    if type(template) is not SlipParams:
+        raise ValueError(f"the template's learned correction is the paper's hopper's robot's; the robot of a "
+                         f"{hopper.mass:g} kg, {hopper.leg_length:g} m hopper plans for its fitted template")
+    return replace(hopper, leg_length=hopper.leg_length * template.leg_length / paper.leg_length,
+                   stiffness=hopper.stiffness * template.stiffness / paper.stiffness)

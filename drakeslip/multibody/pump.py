@@ -7,7 +7,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from drakeslip.multibody.controller import CLEARANCE, neutral_angle, stance_time
+from drakeslip.multibody.controller import neutral_angle
+from drakeslip.multibody.gains import CLEARANCE, stance_time
 from drakeslip.multibody.robot import RobotParams
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
@@ -32,19 +33,21 @@ class EnergyPump:
     template to climb anything ahead, say) it hops on the spot's level ground instead, at its speed by Raibert's
     placement, where the ground is ``level`` [m] for the hop (``room``), up to PUMPS_WITHOUT_PLAN times in a row.
     ``reach`` [m]: hip to the foot's contact at the leg's rest length; ``stance`` [s]: the robot's stance time
-    (``stance_time``)."""
+    (``stance_time``); ``clearance`` [m]: the controller's ``CLEARANCE`` in the robot's lengths."""
 
     reach: float
     rise: float
     level: float
     stance: float
+    clearance: float = CLEARANCE
 
     @classmethod
     def for_robot(cls, robot: RobotParams, params: SlipParams) -> "EnergyPump":
         """``robot``'s pump when it plans for the template ``params``: its leg's reach and stance time, PUMP_RISE
         and LEVEL in the template's lengths."""
         length = units_of(params).length
-        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length, stance_time(robot.slip))
+        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length, stance_time(robot.slip),
+                   CLEARANCE * units_of(robot.slip).length)
 
     def wanted(self, planned_apexes, seen: ApexState, sensed: Terrain, gravity: float, pumps_in_a_row: int,
                safe_hop: bool = False) -> bool:
@@ -67,7 +70,7 @@ class EnergyPump:
             angle = neutral_angle(xdot, self.reach, self.stance)
             foot_x = x + self.reach * math.sin(angle)
             ground = max(float(terrain.height_at(x)), float(terrain.height_at(foot_x)))
-            if z - self.reach * math.cos(angle) - ground < CLEARANCE:
+            if z - self.reach * math.cos(angle) - ground < self.clearance:
                 return True
         return False
 

@@ -19,7 +19,9 @@ from drakeslip.multibody.robot import RobotParams
 from drakeslip.replay_scene import Y_HOPPER, Scene, animate, draw_scene, legend, points, pose, write_page
 from drakeslip.terrain import Terrain
 
-HEADROOM = 0.26      # [m] kept above the body's path: the body box's corners reach 0.21 m from its centre
+# [m] kept above the body's path: the body box's corners reach 0.21 m from its centre (the paper's hopper's robot; a
+# hopper's own, in its lengths)
+HEADROOM = 0.26
 PART_NAMES = {"body_visual": "body", "leg_visual": "upper leg", "shin_visual": "lower leg", "foot_visual": "foot"}
 
 
@@ -98,7 +100,7 @@ def _scene(log: HopLog, model: RobotModel, terrain: Terrain, planned_footholds, 
     return Scene(terrain, np.asarray(log.times, dtype=float), model.body_path(model.positions(log)), touchdowns,
                  points(planned_footholds, terrain), points(predicted_apexes, terrain),
                  None if failure is None else (failure.time, failure.state[0], failure.state[1], failure.mode.name),
-                 0.05 * model.robot.slip.leg_length / 0.5, HEADROOM)
+                 0.05 * model.robot.slip.leg_length / 0.5, HEADROOM * model.robot.slip.leg_length / 0.5)
 
 
 # many parameters: the run and its plan, then the animation's keywords as ``meshcat_replay.draw_replay`` takes them

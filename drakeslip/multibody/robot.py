@@ -16,16 +16,38 @@ from __future__ import annotations
 import functools
 import math
 import xml.etree.ElementTree as ET
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib import resources
 
 import numpy as np
 
 from drakeslip.params import SlipParams, check_number
+from drakeslip.units import units_of
 
 SDF_FILE = "robot.sdf"
 
-FOOT_TRAVEL = 0.05   # [m] how far the foot ball rolls in stance and is dragged at liftoff, at most, on the suites' hops
+# [m] how far the foot ball rolls in stance and is dragged at liftoff, at most, on the suites' hops; the paper's
+# hopper's, in a hopper's own lengths
+FOOT_TRAVEL = 0.05
+# How each field of RobotParams scales with a hopper's units (drakeslip.units.HopperUnits): powers of (mass, length,
+# time). Inertias M L^2; torques M L^2 / T^2; a motor's speed limit 1 / T; forces M L / T^2; damping [N s/m] M / T;
+# contact stiffness [N/m] M / T^2; Hunt-Crossley dissipation [s/m] T / L.
+SCALING = {"body_pitch_inertia": (1, 2, 0), "leg_mass": (1, 0, 0), "foot_mass": (1, 0, 0), "foot_radius": (0, 1, 0),
+           "leg_damping": (1, 0, -1), "hip_torque_limit": (1, 2, -2), "hip_speed_limit": (0, 0, -1),
+           "leg_force_limit": (1, 1, -2), "contact_stiffness": (1, 0, -2), "contact_dissipation": (0, -1, 1),
+           "time_step": (0, 0, 1)}
+
+
+def scaled_robot(cls, scaling: dict, slip: SlipParams, overrides: dict):
+    """The robot ``cls`` of the hopper ``slip``: ``cls``'s defaults (the paper's hopper's robot) with each field of
+    ``scaling`` in ``slip``'s units (for the paper's hopper each factor is exactly 1), then ``overrides`` by field
+    name."""
+    units = units_of(slip)
+    base = cls()
+    values = {name: getattr(base, name) * units.mass ** m * units.length ** length * units.time ** t
+              for name, (m, length, t) in scaling.items()}
+    values.update(overrides)
+    return cls(slip=slip, **values)
 
 
 @dataclass(frozen=True)
@@ -65,13 +87,17 @@ class RobotParams:
     def __post_init__(self):
         if not isinstance(self.slip, SlipParams):
             raise TypeError(f"RobotParams.slip must be a SlipParams, got {type(self.slip).__name__}")
-        for name in ("body_pitch_inertia", "leg_mass", "foot_mass", "foot_radius", "leg_damping",
-                     "hip_torque_limit", "hip_speed_limit", "leg_force_limit", "contact_stiffness",
-                     "contact_dissipation", "time_step"):
+        for name in SCALING:
             check_number(getattr(self, name), f"RobotParams.{name}", positive=name != "leg_damping")
         if not self.foot_radius < self.slip.min_leg_length / 2:
             raise ValueError(f"RobotParams.foot_radius must be below half the bottom-out length "
                              f"{self.slip.min_leg_length}, got {self.foot_radius}")
+
+    @classmethod
+    def for_hopper(cls, slip: SlipParams, **overrides) -> "RobotParams":
+        """The robot of the hopper ``slip``: the paper's robot with every value in ``slip``'s units (``SCALING``),
+        then ``overrides`` by field name."""
+        return scaled_robot(cls, SCALING, slip, overrides)
 
     @property
     def rest_extension(self) -> float:
@@ -88,11 +114,15 @@ class RobotParams:
         """How far before a step's face [m] the robot's planner places no foothold: the foot ball's radius plus
         FOOT_TRAVEL, the ball's rolling in stance and its drag at liftoff. Nearer, the ball catches the face as
         it leaves the ground and the body's angular momentum jumps."""
-        return self.foot_radius + FOOT_TRAVEL
+        return self.foot_radius + FOOT_TRAVEL * units_of(self.slip).length
 
     @property
     def total_mass(self) -> float:
         return self.slip.mass + self.leg_mass + self.foot_mass
+
+    def with_slip(self, slip: SlipParams) -> "RobotParams":
+        """These values on another template (a noise profile's drawn spring, mass and friction)."""
+        return replace(self, slip=slip)
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -101,21 +131,6 @@ class RobotParams:
     def from_dict(cls, d: dict) -> "RobotParams":
         d = dict(d)
         return cls(slip=SlipParams(**d.pop("slip")), **d)
-
-
-def check_robot_hopper(hopper, what: str) -> None:
-    """ValueError in one line unless ``hopper`` (a ``drakeslip.hopper_file.NamedHopper``; the friction is the ground's
-    and may differ) is the paper's: the robot's geometry, masses and motors (``RobotParams``' defaults) and the
-    template fitted to it (``drakeslip/multibody/template.json``) are the paper's hopper's, so a run of another
-    hopper on the robot would be a run of a different robot under its name. ``what`` names where the hopper comes
-    from (a suite, a plan file, --hopper)."""
-    from drakeslip.hopper_file import BODY_FIELDS, describe_params, paper_hopper
-
-    paper = paper_hopper()
-    if any(getattr(hopper.params, key) != getattr(paper.params, key) for key in BODY_FIELDS):
-        raise ValueError(f"the multibody robot (drakeslip/multibody) and its fitted template are built for the "
-                         f"paper's hopper ({describe_params(paper.params)}), not for hopper {hopper.name!r} "
-                         f"({describe_params(hopper.params)}) from {what}: run it on another backend")
 
 
 def set_sdf_value(root, path: str, value) -> None:
@@ -136,16 +151,34 @@ def sdf_text(root) -> str:
     return ET.tostring(root, encoding="unicode").replace("drake__", "drake:")
 
 
+def scale_link(link, mass: float, length: float) -> None:
+    """Give ``link`` the ``mass`` and every length of it (poses, shapes) times ``length``, its inertia scaled with
+    the mass and the length squared: the paper's robot's part, in another hopper's units."""
+    inertial = link.find("inertial")
+    paper_mass = float(inertial.find("mass").text)
+    set_sdf_value(inertial, "mass", mass)
+    for entry in inertial.find("inertia"):
+        entry.text = repr(float(entry.text) * mass / paper_mass * length ** 2)
+    for pose in link.iter("pose"):
+        values = [float(v) for v in pose.text.split()]
+        pose.text = " ".join(repr(v) for v in [*(c * length for c in values[:3]), *values[3:]])
+    for tag in ("radius", "length"):
+        for node in link.iter(tag):
+            node.text = repr(float(node.text) * length)
+    for node in link.iter("size"):
+        node.text = " ".join(repr(float(v) * length) for v in node.text.split())
+
+
 def _model_links(params: RobotParams):
     """The packaged SDF's tree with ``params`` written into it, and its links by name."""
     root = read_sdf_tree("drakeslip.multibody", SDF_FILE)
     model = root.find("model")
     links = {link.get("name"): link for link in model.findall("link")}
     joints = {joint.get("name"): joint for joint in model.findall("joint")}
-    set_sdf_value(links["body"], "inertial/mass", params.slip.mass)
+    length = units_of(params.slip).length
+    for name, mass in (("body", params.slip.mass), ("leg", params.leg_mass), ("foot", params.foot_mass)):
+        scale_link(links[name], mass, length)
     set_sdf_value(links["body"], "inertial/inertia/iyy", params.body_pitch_inertia)
-    set_sdf_value(links["leg"], "inertial/mass", params.leg_mass)
-    set_sdf_value(links["foot"], "inertial/mass", params.foot_mass)
     set_sdf_value(links["foot"], "visual[@name='foot_visual']/geometry/sphere/radius", params.foot_radius)
     set_sdf_value(links["foot"], "collision/geometry/sphere/radius", params.foot_radius)
     props = links["foot"].find("collision/drake__proximity_properties")

@@ -39,11 +39,8 @@ from pydrake.common.containers import namedview
 from pydrake.common.value import AbstractValue
 from pydrake.systems.framework import BasicVector, LeafSystem
 
-from drakeslip.multibody.controller import (BIAS_GAIN, CLEARANCE, FLIGHT_GAINS, FRICTION_SHARE,
-                                            LANDING_SWING_SHARE, LANDING_SWING_TIME, LEG_GAINS, LIFT_DAMPING,
-                                            LIFTOFF_MARGIN, MIN_STANCE, RETRACT, SPEED_GAIN,
-                                            STANCE_GAINS, TOUCHDOWN_COMPRESSION, TOUCHDOWN_RATE, Phase,
-                                            motor_torque, stance_time, swing_inertia)
+from drakeslip.multibody.controller import Phase, motor_torque, swing_inertia
+from drakeslip.multibody.gains import BIAS_GAIN, FRICTION_SHARE, LANDING_SWING_SHARE, SPEED_GAIN, control_constants
 from drakeslip.spatial.heightmap import HeightMap, ScalarHeights
 from drakeslip.spatial.multibody.aiming import (aim_direction, cross, fall_time, hip_angles, offset_direction,
                                                 roll_pitch_yaw, rotation)
@@ -134,23 +131,15 @@ class SpatialHopperController(LeafSystem):
         super().__init__()
         self.params, self.layout = params, layout
         u = units_of(params.slip)
-        torque, rate = params.slip.mass / 7.0 * u.length ** 2 / u.time ** 2, 1.0 / u.time
-        self.flight_gains = (FLIGHT_GAINS[0] * torque, FLIGHT_GAINS[1] * torque / rate)
-        self.stance_gains = (STANCE_GAINS[0] * torque, STANCE_GAINS[1] * torque / rate)
-        self.lift_damping = LIFT_DAMPING * torque / rate
-        force = params.slip.mass / 7.0 / u.time ** 2
-        self.leg_gains = (LEG_GAINS[0] * force, LEG_GAINS[1] * force * u.time)
-        self.retract, self.clearance = RETRACT * u.length, CLEARANCE * u.length
-        self.touchdown_compression, self.touchdown_rate = TOUCHDOWN_COMPRESSION * u.length, TOUCHDOWN_RATE * u.speed
-        self.liftoff_margin, self.min_stance = LIFTOFF_MARGIN * u.length, MIN_STANCE * u.time
-        self.stance_time = stance_time(params.slip)
+        self.scaled = control_constants(params.slip)   # the planar robot's gains and thresholds in these units
         self.apex_floor = params.slip.leg_length + APEX_CLEARANCE * u.length
         self.cone_reach = math.sin(math.atan(CONE_SHARE * params.slip.friction))
         geometry = spatial_geometry(params)
         self.leg_com, self.leg_inertia = geometry.leg_com, geometry.leg_inertia
         self.inertia = np.array([params.body_roll_inertia, params.body_pitch_inertia, params.body_yaw_inertia])
         self.foot_share = params.foot_mass / params.slip.mass
-        swing = swing_inertia(params, params.rest_extension - self.retract, self.leg_com, self.leg_inertia[0])
+        swing = swing_inertia(params, params.rest_extension - self.scaled.retract, self.leg_com,
+                              self.leg_inertia[0])
         self.swing_ratio = (swing / params.body_roll_inertia, swing / params.body_pitch_inertia)
         self.state_port = self.DeclareVectorInputPort("state", layout.size)
         self.command_port = self.DeclareAbstractInputPort("command", AbstractValue.Make(SpatialCommand(stamp=-1)))
@@ -179,9 +168,9 @@ class SpatialHopperController(LeafSystem):
         """The world leg direction to the neutral point (half the stance's travel ahead of the hip along the
         horizontal ``velocity``) plus ``SPEED_GAIN`` times its error from ``wanted`` and the learned ``offset``:
         Raibert's placement."""
-        gain = SPEED_GAIN * units_of(self.params.slip).time
-        ox = 0.5 * velocity[0] * self.stance_time + gain * (velocity[0] - wanted[0]) + offset[0]
-        oy = 0.5 * velocity[1] * self.stance_time + gain * (velocity[1] - wanted[1]) + offset[1]
+        gain = self.scaled.speed_gain
+        ox = 0.5 * velocity[0] * self.scaled.stance_time + gain * (velocity[0] - wanted[0]) + offset[0]
+        oy = 0.5 * velocity[1] * self.scaled.stance_time + gain * (velocity[1] - wanted[1]) + offset[1]
         return offset_direction(ox, oy, self.params.slip.leg_length, self.cone_reach)
 
     def _update(self, context, discrete_state):
@@ -231,7 +220,8 @@ class SpatialHopperController(LeafSystem):
                 s.offset_x += gain * max(-most, min(most, velocity[0] - command.velocity[0]))
                 s.offset_y += gain * max(-most, min(most, velocity[1] - command.velocity[1]))
             return Phase.DESCENT
-        if phase == Phase.DESCENT and rest - leg > self.touchdown_compression and leg_rate < self.touchdown_rate:
+        if phase == Phase.DESCENT and rest - leg > self.scaled.touchdown_compression \
+                and leg_rate < self.scaled.touchdown_rate:
             s.step += 1.0
             d = r @ leg_direction(*hip)
             s.touchdown_z = position[2] + leg * d[2] - self.params.foot_radius   # the ground under the ball
@@ -243,7 +233,8 @@ class SpatialHopperController(LeafSystem):
             s.lean_roll = self.swing_ratio[0] * math.asin(max(-1.0, min(1.0, left)))
             s.lean_pitch = -self.swing_ratio[1] * math.atan2(forward, -d[2])
             return Phase.STANCE
-        if phase == Phase.STANCE and t - s.phase_start > self.min_stance and leg >= rest - self.liftoff_margin:
+        if phase == Phase.STANCE and t - s.phase_start > self.scaled.min_stance \
+                and leg >= rest - self.scaled.liftoff_margin:
             return Phase.ASCENT
         return phase
 
@@ -269,7 +260,7 @@ class SpatialHopperController(LeafSystem):
         momentum = self.angular_momentum(velocity, omega, r, hip, hip_rates, leg, leg_rate)
         # errors and momentum about the heading's axes (forward, left), where roll and pitch turn the body
         h_forward, h_left = cy * momentum[0] + sy * momentum[1], -sy * momentum[0] + cy * momentum[1]
-        kp, kd = self.stance_gains
+        kp, kd = self.scaled.stance_gains
         want_forward = -(kp * (roll - s.lean_roll) + kd * h_forward / self.inertia[0])
         want_left = -(kp * (pitch - s.lean_pitch) + kd * h_left / self.inertia[1])
         # the torque pushes the foot across the leg: it may take FRICTION_SHARE of the friction the leg's force,
@@ -298,7 +289,7 @@ class SpatialHopperController(LeafSystem):
             floor = g * (s.touchdown_z + self.apex_floor) + 0.5 * self.foot_share * velocity[2] ** 2 + s.bias
             s.floored = float(floor - vertical > need)
             need = max(need, floor - vertical)
-            force = slip.mass * need / max(rest - leg, 0.01 * units_of(slip).length)
+            force = slip.mass * need / max(rest - leg, self.scaled.least_stroke)
             # taking energy out, the actuator pulls against at most half the spring's force: pulling harder unloads
             # the foot, which leaves the ground with the leg still compressed
             force = max(-0.5 * min(p.leg_force_limit, leg_force), min(p.leg_force_limit, force))
@@ -326,17 +317,17 @@ class SpatialHopperController(LeafSystem):
             target, rate = self._landing_swing(wanted, fall, velocity, r)
         else:
             target, rate = hip_angles(r.T @ wanted), (0.0, 0.0)
-        kp, kd = self.flight_gains
-        if phase == Phase.ASCENT and self._foot_clearance(s, sensed, command, wanted) < self.clearance:
+        kp, kd = self.scaled.flight_gains
+        if phase == Phase.ASCENT and self._foot_clearance(s, sensed, command, wanted) < self.scaled.clearance:
             # the foot is leaving the ground: the leg retracts and swings back at the rate that keeps the foot over
             # the ground it left (dragged forward, a foot near a face catches it and kicks the body round)
-            kp, kd = 0.0, self.lift_damping
+            kp, kd = 0.0, self.scaled.lift_damping
             d = r @ leg_direction(*hip)
             _, rate = self._moving_offset(r, leg * d[0], leg * d[1], -velocity[:2], leg)
         torques = (kp * (target[0] - hip[0]) + kd * (rate[0] - hip_rates[0]),
                    kp * (target[1] - hip[1]) + kd * (rate[1] - hip_rates[1]))
-        goal = rest - self.retract if phase == Phase.ASCENT else rest + 0.01 * units_of(p.slip).length
-        kp, kd = self.leg_gains
+        goal = rest - self.scaled.retract if phase == Phase.ASCENT else rest + self.scaled.least_stroke
+        kp, kd = self.scaled.leg_gains
         force = kp * (goal - leg) - kd * leg_rate - p.slip.stiffness * (rest - leg)
         return torques, max(-p.leg_force_limit, min(p.leg_force_limit, force))
 
@@ -361,7 +352,7 @@ class SpatialHopperController(LeafSystem):
         the leg's force holds it (ground-speed matching; the planar controller's)."""
         reach = self.params.rest_extension
         swing = -LANDING_SWING_SHARE * velocity[:2]
-        lead = min(fall, LANDING_SWING_TIME * units_of(self.params.slip).time)
+        lead = min(fall, self.scaled.landing_swing_time)
         return self._moving_offset(r, reach * wanted[0] - swing[0] * lead, reach * wanted[1] - swing[1] * lead, swing,
                                    reach)
 

@@ -21,20 +21,16 @@ from dataclasses import asdict, dataclass, field, fields, replace
 
 import numpy as np
 
-from drakeslip.multibody.robot import read_sdf_tree, sdf_text, set_sdf_value
+from drakeslip.multibody.robot import SCALING as PLANAR_SCALING, read_sdf_tree, scale_link, scaled_robot, sdf_text, \
+    set_sdf_value
 from drakeslip.params import SlipParams, check_number
 from drakeslip.units import units_of
 
 SDF_PACKAGE, SDF_FILE = "drakeslip.spatial.multibody", "robot.sdf"
 
-# How each field of SpatialRobotParams scales with a hopper's units (drakeslip.units.HopperUnits): powers of
-# (mass, length, time). Inertias M L^2; torques M L^2 / T^2; a motor's speed limit 1 / T; forces M L / T^2;
-# damping [N s/m] M / T; contact stiffness [N/m] M / T^2; Hunt-Crossley dissipation [s/m] T / L.
-SCALING = {"body_roll_inertia": (1, 2, 0), "body_pitch_inertia": (1, 2, 0), "body_yaw_inertia": (1, 2, 0),
-           "gimbal_mass": (1, 0, 0), "leg_mass": (1, 0, 0), "foot_mass": (1, 0, 0), "foot_radius": (0, 1, 0),
-           "leg_damping": (1, 0, -1), "hip_torque_limit": (1, 2, -2), "hip_speed_limit": (0, 0, -1),
-           "leg_force_limit": (1, 1, -2), "contact_stiffness": (1, 0, -2), "contact_dissipation": (0, -1, 1),
-           "time_step": (0, 0, 1)}
+# How each field of SpatialRobotParams scales with a hopper's units: the planar robot's fields as there
+# (``drakeslip.multibody.robot.SCALING``), the roll and yaw inertias M L^2 and the gimbal's mass M.
+SCALING = {**PLANAR_SCALING, "body_roll_inertia": (1, 2, 0), "body_yaw_inertia": (1, 2, 0), "gimbal_mass": (1, 0, 0)}
 
 
 @dataclass(frozen=True)
@@ -84,12 +80,7 @@ class SpatialRobotParams:
     def for_hopper(cls, slip: SlipParams, **overrides) -> "SpatialRobotParams":
         """The robot of the hopper ``slip``: the paper's robot with every value in ``slip``'s units (``SCALING``;
         for the paper's hopper each factor is exactly 1), then ``overrides`` by field name."""
-        units = units_of(slip)
-        base = cls()
-        values = {name: getattr(base, name) * units.mass ** m * units.length ** length * units.time ** t
-                  for name, (m, length, t) in SCALING.items()}
-        values.update(overrides)
-        return cls(slip=slip, **values)
+        return scaled_robot(cls, SCALING, slip, overrides)
 
     @property
     def rest_extension(self) -> float:
@@ -122,24 +113,6 @@ class SpatialRobotParams:
         return replace(self, slip=slip)
 
 
-def _scale_link(link, mass: float, length: float) -> None:
-    """Give ``link`` the ``mass`` and every length of it (poses, shapes) times ``length``, its inertia scaled with
-    the mass and the length squared: the paper's robot's part, in another hopper's units."""
-    inertial = link.find("inertial")
-    paper_mass = float(inertial.find("mass").text)
-    set_sdf_value(inertial, "mass", mass)
-    for entry in inertial.find("inertia"):
-        entry.text = repr(float(entry.text) * mass / paper_mass * length ** 2)
-    for pose in link.iter("pose"):
-        values = [float(v) for v in pose.text.split()]
-        pose.text = " ".join(repr(v) for v in [*(c * length for c in values[:3]), *values[3:]])
-    for tag in ("radius", "length"):
-        for node in link.iter(tag):
-            node.text = repr(float(node.text) * length)
-    for node in link.iter("size"):
-        node.text = " ".join(repr(float(v) * length) for v in node.text.split())
-
-
 def _model(params: SpatialRobotParams):
     """The packaged SDF's tree with ``params`` written into it, and its links by name."""
     root = read_sdf_tree(SDF_PACKAGE, SDF_FILE)
@@ -149,7 +122,7 @@ def _model(params: SpatialRobotParams):
     length = units_of(params.slip).length
     for name, mass in (("body", params.slip.mass), ("gimbal", params.gimbal_mass), ("leg", params.leg_mass),
                        ("foot", params.foot_mass)):
-        _scale_link(links[name], mass, length)
+        scale_link(links[name], mass, length)
     for axis, value in zip(("ixx", "iyy", "izz"),
                            (params.body_roll_inertia, params.body_pitch_inertia, params.body_yaw_inertia)):
         set_sdf_value(links["body"], f"inertial/inertia/{axis}", value)

@@ -1,0 +1,87 @@
+"""The planar robot of any hopper: the paper's robot in the hopper's units (``RobotParams.for_hopper``), its
+controller's gains and thresholds and its monitor's in the same units, and the template its planners plan for
+(``drakeslip.multibody.fit.template_for``)."""
+import numpy as np
+import pytest
+
+import drakeslip as ds
+from drakeslip.multibody import gains as ctl
+from drakeslip.multibody.execute import hop_at_speed
+from drakeslip.multibody.fit import template_for
+from drakeslip.multibody.robot import SCALING, RobotParams, hopper_sdf, model_geometry
+from drakeslip.units import units_of
+
+# Froude-similar to the paper's hopper (k L0 / (m g) and friction the same): twice the mass, twice the leg
+SIMILAR = ds.SlipParams(mass=14.0, leg_length=1.0, stiffness=3200.0, min_leg_length=0.6)
+OTHER = ds.SlipParams(mass=4.0, leg_length=0.4, stiffness=3500.0, min_leg_length=0.25, friction=0.7)
+
+
+def test_the_paper_hoppers_robot_is_the_default_robot_to_the_bit():
+    from drakeslip.multibody.diagram import build_diagram
+
+    assert RobotParams.for_hopper(ds.SlipParams()) == RobotParams()
+    hd = build_diagram(ds.Terrain.flat(), RobotParams.for_hopper(ds.SlipParams()))
+    c = hd.controller.scaled
+    assert (c.flight_gains, c.stance_gains, c.leg_gains) == (ctl.FLIGHT_GAINS, ctl.STANCE_GAINS, ctl.LEG_GAINS)
+    assert (c.retract, c.clearance, c.touchdown_rate, c.min_stance, c.speed_gain) == (
+        ctl.RETRACT, ctl.CLEARANCE, ctl.TOUCHDOWN_RATE, ctl.MIN_STANCE, ctl.SPEED_GAIN)
+
+
+@pytest.mark.parametrize("slip", [SIMILAR, OTHER], ids=["similar", "other"])
+def test_another_hoppers_robot_is_the_paper_robot_in_its_units(slip):
+    from drakeslip.multibody.diagram import build_diagram
+    from drakeslip.multibody.failures import SLIP_DISTANCE, TRIP_GRACE, HopMonitor
+
+    u, paper = units_of(slip), RobotParams()
+    robot = RobotParams.for_hopper(slip, leg_damping=3.0)
+    for name, (m, length, t) in SCALING.items():
+        wanted = 3.0 if name == "leg_damping" else getattr(paper, name) * u.mass ** m * u.length ** length * u.time ** t
+        assert getattr(robot, name) == pytest.approx(wanted, rel=1e-12), name
+    assert robot.slip == slip and robot.hip_torque_limit != paper.hip_torque_limit
+    geometry, base = model_geometry(robot), model_geometry(paper)
+    assert geometry.leg_com == pytest.approx(base.leg_com * u.length, rel=1e-12)
+    assert geometry.leg_inertia == pytest.approx(base.leg_inertia * u.mass * u.length ** 2, rel=1e-12)
+    assert geometry.body_half == pytest.approx(tuple(h * u.length for h in base.body_half), rel=1e-12)
+    assert f"<mass>{slip.mass!r}</mass>" in hopper_sdf(robot)
+    hd = build_diagram(ds.Terrain.flat(), robot)
+    c = hd.controller.scaled
+    assert c.flight_gains[0] == pytest.approx(ctl.FLIGHT_GAINS[0] * u.mass * u.length ** 2 / u.time ** 2)
+    assert c.leg_gains[0] == pytest.approx(ctl.LEG_GAINS[0] * u.mass / u.time ** 2)
+    assert (c.retract, c.min_stance) == pytest.approx((ctl.RETRACT * u.length, ctl.MIN_STANCE * u.time))
+    monitor = HopMonitor(hd, ds.Terrain.flat(), hd.diagram.CreateDefaultContext(), None)
+    assert (monitor.slip_distance, monitor.trip_grace) == pytest.approx((SLIP_DISTANCE * u.length,
+                                                                          TRIP_GRACE * u.time))
+    assert robot.face_keep_out == pytest.approx(paper.face_keep_out * u.length)
+
+
+def test_a_similar_hoppers_robot_hops_as_the_paper_robot_in_its_units():
+    """Hopping at 1.5 speed units on flat ground, the apexes of the robot of a hopper twice the paper's size, in
+    leg lengths and speed units, are the paper robot's to a few thousandths (Drake's contact is not exactly
+    scale-free): every value of the robot and its controller scales."""
+    apexes = []
+    for slip in (ds.SlipParams(), SIMILAR):
+        u = units_of(slip)
+        log = hop_at_speed(1.5 * u.speed, 6, RobotParams.for_hopper(slip), apex_height=0.62 * u.length)
+        assert log.failure is None and len(log.apexes) == 6
+        apexes.append(np.array([(a.x / u.length, a.z / u.length, a.xdot / u.speed) for a in log.apexes]))
+    error = np.abs(apexes[0] - apexes[1]).max(axis=0)
+    assert error[0] < 0.01 and error[1] < 0.001 and error[2] < 0.005, error
+
+
+def test_the_template_for_a_hoppers_robot_takes_the_fit_as_factors():
+    from drakeslip.hopper_file import load_hopper
+    from drakeslip.multibody.fit import TEMPLATE_FILE
+
+    fitted = load_hopper(TEMPLATE_FILE).params
+    assert template_for(ds.SlipParams(friction=0.6), fitted) == fitted.with_friction(0.6)
+    similar = template_for(SIMILAR, fitted)
+    assert similar.leg_length == pytest.approx(fitted.leg_length * 2) and similar.mass == 14.0
+    assert similar.stiffness == pytest.approx(fitted.stiffness)
+    other = template_for(OTHER, fitted)
+    assert (other.leg_length / OTHER.leg_length, other.stiffness / OTHER.stiffness) == pytest.approx(
+        (fitted.leg_length / 0.5, fitted.stiffness / 3200.0))
+    assert (other.friction, other.min_leg_length) == (0.7, 0.25)
+    corrected = load_hopper(TEMPLATE_FILE.with_name("template_corrected.json")).params
+    assert type(template_for(ds.SlipParams(), corrected)) is type(corrected)
+    with pytest.raises(ValueError, match="learned correction is the paper's hopper's robot's"):
+        template_for(OTHER, corrected)
