@@ -30,7 +30,8 @@ def main(argv=None) -> int:
     ap.add_argument("--every", type=cli.positive_int, default=3, help="every K-th case of each 150-case suite")
     ap.add_argument("--families", type=cli.names, default=None,
                     help="more terrain families, comma-separated, for step and lstm-guided (e.g. step,mixed)")
-    ap.add_argument("--backend", choices=("drake", "fast"), default="drake", help="what executes the plans")
+    ap.add_argument("--backend", choices=("drake", "fast", "multibody"), default="drake",
+                    help="what executes the plans: the Drake SLIP, the fast step map, or each hopper's multibody robot")
     ap.add_argument("--out", type=cli.output_folder, required=True, help="folder of the results JSON files")
     ap.add_argument("--quiet", action="store_true", help="no progress bars")
     cli.add_parallel(ap)

@@ -75,21 +75,28 @@ def _run_on_template(planner, controller, case, goal_x: float, params: SlipParam
     return case_result(case.id, failure, final_x, plans, None if noise.silent else executed)
 
 
-def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
-    """The loop on the multibody robot (``planners.drake_system.run_closed_loop``): the robot of the hopper
-    ``params`` (``RobotParams.for_hopper``) planned for with ``config.template`` (fitted to the paper's hopper's
-    robot) made that robot's (``drakeslip.multibody.fit.template_for``); a robot of the config's own is planned
-    for with ``params`` itself."""
+def robot_config(config: ClosedLoopConfig, params: SlipParams) -> ClosedLoopConfig:
+    """``config`` with, on the multibody backend, the robot and the template it runs for the hopper ``params`` made
+    explicit: without a robot of its own, the robot of the hopper (``RobotParams.for_hopper``) planned for with
+    ``config.template`` (fitted to the paper's hopper's robot) made that robot's
+    (``drakeslip.multibody.fit.template_for``; ValueError for a learned correction on another hopper); a config
+    with a robot of its own is taken as it is (its template, None: the hopper's own SLIP)."""
     from drakeslip.multibody.fit import template_for
     from drakeslip.multibody.robot import RobotParams
+
+    if config.backend != "multibody" or config.robot is not None:
+        return config
+    template = template_for(params, config.template) if config.template is not None else None
+    return replace(config, robot=RobotParams.for_hopper(params), template=template)
+
+
+def _run_on_robot(planner, case, goal_x: float, params: SlipParams, config: ClosedLoopConfig) -> dict:
+    """The loop on the multibody robot (``planners.drake_system.run_closed_loop``), the robot and the template of
+    ``robot_config``; a template of None: the hopper ``params`` itself."""
     from planners.drake_system import run_closed_loop
 
-    if config.robot is None:
-        robot = RobotParams.for_hopper(params)
-        template = template_for(params, config.template) if config.template else params
-    else:
-        robot, template = config.robot, params
-    result = run_closed_loop(planner, case, goal_x, template, replace(config, robot=robot))
+    config = robot_config(config, params)
+    result = run_closed_loop(planner, case, goal_x, config.template or params, config)
     result["plans"] = [{k: v for k, v in plan.items() if k != "stamp"} for plan in result["plans"]]
     return result
 

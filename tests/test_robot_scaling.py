@@ -85,3 +85,29 @@ def test_the_template_for_a_hoppers_robot_takes_the_fit_as_factors():
     assert type(template_for(ds.SlipParams(), corrected)) is type(corrected)
     with pytest.raises(ValueError, match="learned correction is the paper's hopper's robot's"):
         template_for(OTHER, corrected)
+
+
+def test_the_paper_hoppers_run_records_the_robot_and_template_it_did_before():
+    """Resolving the robot of the suite's hopper changes nothing a paper-hopper run records (its cache key)."""
+    from drakeslip.multibody.fit import fitted_template
+    from planners.closed_loop import ClosedLoopConfig, robot_config
+
+    config = ClosedLoopConfig(backend="multibody", template=fitted_template())
+    assert robot_config(config, ds.SlipParams()).to_dict() == config.to_dict()
+    assert robot_config(ClosedLoopConfig(), OTHER) == ClosedLoopConfig()   # not the robot: unchanged
+
+
+def test_another_hoppers_acceptance_runs_its_own_robot_and_records_it():
+    """``hopper_acceptance`` on the multibody backend: the heaviest corner hopper's robot runs, planned for with its
+    template, and the results record both."""
+    from dataclasses import asdict
+
+    from drakeslip.multibody.fit import fitted_template
+    from verification.hopper_acceptance import evaluate_hopper, random_hoppers
+
+    h = random_hoppers(35, 0)[1]
+    results = evaluate_hopper(h, "ditch", 35000, ["step@robust"], every=75, backend="multibody")
+    run = results["planners"]["step@robust"]
+    assert run["config"]["robot"]["params"] == RobotParams.for_hopper(h.params).to_dict()
+    assert run["config"]["template"] == asdict(template_for(h.params, fitted_template()))
+    assert len(run["cases"]) == 2 and all(c["what"] for c in run["cases"])

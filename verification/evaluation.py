@@ -33,7 +33,7 @@ from drakeslip.jobs.files import sha256
 from drakeslip.jobs.runner import JsonLinesStore, run
 
 from planners.base import Planner
-from planners.closed_loop import ClosedLoopConfig, run_case
+from planners.closed_loop import ClosedLoopConfig, robot_config, run_case
 from planners.formats.case_record import check_case_record
 from planners.formats.map_case_record import check_map_case_record
 from planners.formats.map_suite import MapSuite, map_of_task, task_map
@@ -188,12 +188,9 @@ def evaluate(suite: Suite | MapSuite, specs: dict, n_cases: int | None = None, e
     configs = config if isinstance(config, dict) else {label: config for label in specs}
     if isinstance(suite, MapSuite):
         check_map_run({label: configs[label] for label in specs})
-    else:   # the robot of any hopper; a template with the paper's robot's learned correction is that robot's only
-        from drakeslip.multibody.fit import template_for
-
-        for c in configs.values():
-            if c.backend == "multibody" and c.template is not None:
-                template_for(suite_hopper(suite).params, c.template)
+    else:   # the robot of the suite's hopper and its template, as the results record them (refused: a learned
+        # correction of the paper's robot's template on another hopper)
+        configs = {label: robot_config(configs[label], suite_hopper(suite).params) for label in specs}
     if {c.refine for c in configs.values()} != {next(iter(configs.values())).refine}:
         raise ValueError("every planner of a run shares the controller: give them all the same refine")
     setup = worker_setup(specs, controller_path, next(iter(configs.values())).refine)

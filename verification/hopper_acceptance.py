@@ -61,11 +61,15 @@ def describe(h: NamedHopper) -> str:
 def evaluate_hopper(h: NamedHopper, family: str, seed: int, labels, every: int = 1, backend: str = "fast",
                     executor=None, cache_path=None, progress: bool = False) -> dict:
     """``labels`` (of RUNS) evaluated on the ``family`` suite drawn for ``h`` from terrain ``seed``, every
-    ``every``-th case, each label with its RUNS noise and its preset's closed loop, executed on ``backend``; the
-    planners read the weights of ``h``'s hopper folder, if it has one (``planners.registry.hopper_options``)."""
+    ``every``-th case, each label with its RUNS noise and its preset's closed loop, executed on ``backend`` (on
+    the multibody robot, ``h``'s robot planned for with its fitted template: ``drakeslip.multibody.fit.template_for``);
+    the planners read the weights of ``h``'s hopper folder, if it has one (``planners.registry.hopper_options``)."""
+    from drakeslip.multibody.fit import fitted_template
+
     suite = draw_suite(family, seed, h, name=f"{family}-{seed}-{h.name}")
-    configs = {label: ClosedLoopConfig(backend=backend, noise=PROFILES[RUNS[label][0]], **loop_settings(label))
-               for label in labels}
+    template = fitted_template() if backend == "multibody" else None
+    configs = {label: ClosedLoopConfig(backend=backend, noise=PROFILES[RUNS[label][0]], template=template,
+                                       **loop_settings(label)) for label in labels}
     return evaluate(suite, hopper_specs({label: None for label in labels}, h), executor=executor, cache_path=cache_path,
                     config=configs, progress=progress, every=every)
 

@@ -70,7 +70,7 @@ def set_apex_state(sd: SpatialHopperDiagram, root_context, position, velocity, l
     x[list(lay.quaternion)] = (1.0, 0.0, 0.0, 0.0)
     x[list(lay.position)] = position
     x[list(lay.hip)] = hip_angles(np.asarray(leg_direction, dtype=float))
-    x[lay.leg] = sd.params.rest_extension - sd.controller.retract
+    x[lay.leg] = sd.params.rest_extension - sd.controller.scaled.retract
     x[list(lay.linear)] = (velocity[0], velocity[1], 0.0)
     sd.plant.SetPositionsAndVelocities(plant_context, x)
     controller_context = sd.controller.GetMyMutableContextFromRoot(root_context)
