@@ -88,7 +88,7 @@ def arguments() -> cli.ArgumentParser:
     ap.add_argument("--template", type=cli.input_file, default=None,
                     help="multibody backend: the template hopper file the planners plan for (default: the one fitted "
                          "to the paper's hopper's robot, drakeslip/multibody/template.json, whose fit another hopper's "
-                         "robot takes as factors; drakeslip/multibody/template_corrected.json, the paper's only, "
+                         "robot takes as factors; drakeslip/multibody/template_corrected.json, the paper's robot's, "
                          "adds the learned correction of its apex-to-apex map, examples/fit_correction.py); on a map "
                          "suite, a spatial template fit (examples/fit_template.py --robot spatial; default: the "
                          "hopper's own SLIP)")

@@ -4,17 +4,19 @@ held-out hops, and name it in the template the robot's planners plan for.
     python3 examples/fit_correction.py --jobs 2     # 7 min on 2 cores: drakeslip/multibody/template_correction.npz
                                                     # and template_corrected.json naming it, as committed
 
-Draws --cases cases of each --families suite (seed --seed, the paper's suites' kinds), runs each on the robot's
-closed loop without noise with step@robust planning for the fitted template's SLIP (--template, its correction left
-out), and records every hop the robot flew aiming at a plan's foothold with the plan's energy, with the hop before it
-(verification/robot_hops.py); the hops are kept in --hops as the cases run, and a rerun of the same code and setup
-takes them from there. Every --held-out-th case of each suite is held out. Trains the correction
+Draws --cases cases of each --families suite (seed --seed, the paper's suites' kinds) for --hopper (default: the
+paper's), runs each on that hopper's robot's closed loop without noise with step@robust planning for the fitted
+template's SLIP (--template, fitted to the paper's hopper's robot and made the hopper's robot's,
+drakeslip.multibody.fit.template_for; its correction left out), and records every hop the robot flew aiming at a
+plan's foothold with the plan's energy, with the hop before it (verification/robot_hops.py); the hops are kept in
+--hops as the cases run, and a rerun of the same code and setup takes them from there. Every --held-out-th case of
+each suite is held out. Trains the correction
 (drakeslip/apex_correction.py, drakeslip/multibody/correction_training.py) on the other cases' hops and prints the
 held-out hops' errors (median and 90th percentile of |error| in x, z [m] and xdot [m/s]) of the template, of the
 template with the correction, and of that with the hop before unknown (as a plan's first hop is predicted), also by
 the hop's speed change (m/s bands). Writes the weights beside --out (STEM_correction.npz, STEM the --template file's)
 and, to --out, the template with the correction named by the weights file's name and SHA-256, which loading checks
-(``evaluate.py --backend multibody --template`` plans for it).
+(``evaluate.py --backend multibody --template`` plans for it on the hopper's suites).
 Exit status: 0 written, 1 too few hops recorded, 2 bad input, 3 a simulation crashed (one line naming what failed:
 drakeslip/jobs/cli.py).
 """
@@ -38,8 +40,10 @@ def parser() -> cli.ArgumentParser:
     ap.add_argument("--held-out", type=cli.integer(2), default=5, help="hold out every K-th case")
     ap.add_argument("--epochs", type=cli.positive_int, default=3000, help="full-batch training epochs")
     ap.add_argument("--device", default="auto", help=DEVICE_HELP)
+    cli_physics.add_hopper_argument(ap)
     ap.add_argument("--template", type=cli.input_file, default="drakeslip/multibody/template.json",
-                    help="the template hopper file the robot's planners plan for, whose SLIP the correction corrects")
+                    help="the template hopper file fitted to the paper's hopper's robot, made the --hopper's robot's: "
+                         "the SLIP its planners plan for, which the correction corrects")
     ap.add_argument("--out", type=cli.output_file(".json"), default="drakeslip/multibody/template_corrected.json",
                     help="the corrected template's hopper file to write (the weights go beside it)")
     ap.add_argument("--hops", type=cli.output_file(".json"), default="out/robot_hops.json",
@@ -59,9 +63,12 @@ def recorded_hops(args, suites, template, kept: dict) -> dict:
     from verification.provenance import code_version
     from verification.robot_hops import hop_record, robot_hops
 
-    setup = {"code": code_version(), "template": asdict(template)}
+    from drakeslip.multibody.robot import RobotParams
+
+    robot = RobotParams.for_hopper(template_hopper(args).params)
+    setup = {"code": code_version(), "template": asdict(template), "robot": robot.to_dict()}
     records = dict(kept.get("cases", {})) if kept.get("setup") == json.loads(json.dumps(setup)) else {}
-    tasks = [(case.id, ("step@robust", case, suite.goal_x, template.with_friction(suite.friction)))
+    tasks = [(case.id, ("step@robust", case, suite.goal_x, template.with_friction(suite.friction), robot))
              for suite in suites for case in suite.cases[:args.cases] if case.id not in records]
     print(f"{len(records)} cases from {args.hops}, {len(tasks)} to run", flush=True)
     for n, (tag, hops) in enumerate(cli.executor(args).results(robot_hops, tasks), 1):
@@ -71,6 +78,13 @@ def recorded_hops(args, suites, template, kept: dict) -> dict:
                 json.dump({"setup": setup, "cases": records}, f)
             print(f"{n}/{len(tasks)} cases run", flush=True)
     return records
+
+
+def template_hopper(args):
+    """The hopper whose robot runs: --hopper, the paper's by default."""
+    from drakeslip.hopper_file import paper_hopper
+
+    return args.hopper or paper_hopper()
 
 
 def print_errors(train, test, template, arrays) -> None:
@@ -103,19 +117,22 @@ def main(argv=None) -> int:
     from drakeslip.hopper_file import NamedHopper, load_hopper, save_hopper
     from drakeslip.jobs.files import read_json
     from drakeslip.multibody.correction_training import CorrectionConfig, train_correction
+    from drakeslip.multibody.fit import template_for
     from drakeslip.params import RobotTemplate
     from planners.formats.suite_draw import draw_suite
     from verification.robot_hops import hop_from_record
 
     try:
-        suites = [draw_suite(family, args.seed + 1000 * k) for k, family in enumerate(args.families)]
+        hopper = template_hopper(args)
+        suites = [draw_suite(family, args.seed + 1000 * k, hopper) for k, family in enumerate(args.families)]
         torch_device(args.device)
         named = load_hopper(args.template)
+        fitted = named.params.slip if isinstance(named.params, RobotTemplate) else named.params
+        template = template_for(hopper.params, fitted)
         kept = read_json(args.hops, "hop file") if Path(args.hops).is_file() else {}
     except (OSError, ValueError) as error:
         ap.error(str(error))
     cli.announce(argv)
-    template = named.params.slip if isinstance(named.params, RobotTemplate) else named.params
     records = recorded_hops(args, suites, template, kept if isinstance(kept, dict) else {})
     train, test = [], []
     for suite in suites:

@@ -218,3 +218,24 @@ def test_fit_correction_regenerates_a_template_that_loads(run_script, tmp_path):
     code, stdout, _ = run_script("fit_correction", *args)
     assert code == 0 and "4 cases from" in stdout and "0 to run" in stdout
     assert load_hopper(out).params == template   # the same hops, the same weights
+
+
+@pytest.mark.slow
+def test_fit_correction_trains_another_hoppers_robots_correction(run_script, tmp_path):
+    """--hopper: the hopper's robot runs its suites, and the corrected template is the one that robot's planners
+    plan for (``template_for``), accepted for that hopper and refused for the paper's."""
+    from drakeslip.multibody.fit import template_for
+
+    hopper = tmp_path / "big.json"
+    hopper.write_text(json.dumps({"format": "drakeslip-hopper/1", "name": "big", "mass": 20.0, "leg_length": 0.8,
+                                  "stiffness": 5723.0, "gravity": 9.81, "friction": 0.8, "min_leg_length": 0.48}))
+    out = tmp_path / "corrected.json"
+    code, _, err = run_script("fit_correction", "--hopper", hopper, "--families", "ditch", "--cases", "4",
+                              "--held-out", "2", "--epochs", "30", "--device", "cpu", "--out", out,
+                              "--hops", tmp_path / "hops.json")
+    assert code == 0, err
+    template, big = load_hopper(out).params, load_hopper(hopper).params
+    assert template.slip == template_for(big, load_hopper("drakeslip/multibody/template.json").params)
+    assert template_for(big, template) == template
+    with pytest.raises(ValueError, match="trained on another hopper's robot"):
+        template_for(load_hopper("drakeslip/hoppers/paper.json").params, template)

@@ -67,11 +67,11 @@ def make_files(tmp: Path) -> None:
 
 # (script, arguments, exit status, text the one line of stderr holds); {tmp} is the folder holding the files
 PROBES = [
-    # 1. the multibody robot is built for any hopper; the learned correction of its template is the paper's robot's
+    # 1. the multibody robot is built for any hopper; a learned correction of its template is one robot's
     ("evaluate", ["--suite", "{tmp}/mine-suite.json", "--backend", "multibody", "--planners", "heuristic",
                   "--template", "drakeslip/multibody/template_corrected.json", "--out", "{tmp}/r.json"], 2,
-     "the template's learned correction is the paper's hopper's robot's; the robot of a 3 kg, 0.3 m hopper plans "
-     "for its fitted template"),
+     "the template's learned correction was trained on another hopper's robot than the robot of this 3 kg, 0.3 m "
+     "hopper (examples/fit_correction.py --hopper trains one for it)"),
     # 2. a hopper folder holds what its manifest lists, and nothing unlisted
     ("plan_and_hop", ["--hopper", "{tmp}/missing-weights"], 2,
      "hopper folder {tmp}/missing-weights: lstm_expert.pt, listed in its SHA256SUMS, is missing"),
@@ -133,14 +133,14 @@ def test_an_edge_of_the_input_gets_one_line_and_its_status(files, run_script, sc
         assert len(err) < 2000 and "reproduce with" not in out + err   # refused before the run was announced
 
 
-def test_the_library_refuses_the_paper_robots_correction_for_another_hopper(files):
+def test_the_library_refuses_another_robots_correction(files):
     from drakeslip.hopper_file import load_hopper
     from planners.closed_loop import ClosedLoopConfig
     from planners.formats.suite import load_suite
     from verification.evaluation import evaluate
 
     corrected = load_hopper(ROOT / "drakeslip" / "multibody" / "template_corrected.json").params
-    with pytest.raises(ValueError, match="learned correction is the paper's hopper's robot's"):
+    with pytest.raises(ValueError, match="learned correction was trained on another hopper's robot"):
         evaluate(load_suite(files / "mine-suite.json"), {"heuristic": None}, progress=False,
                  config=ClosedLoopConfig(backend="multibody", template=corrected))
 

@@ -1,6 +1,8 @@
 """The planar robot of any hopper: the paper's robot in the hopper's units (``RobotParams.for_hopper``), its
 controller's gains and thresholds and its monitor's in the same units, and the template its planners plan for
 (``drakeslip.multibody.fit.template_for``)."""
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -83,8 +85,11 @@ def test_the_template_for_a_hoppers_robot_takes_the_fit_as_factors():
     assert (other.friction, other.min_leg_length) == (0.7, 0.25)
     corrected = load_hopper(TEMPLATE_FILE.with_name("template_corrected.json")).params
     assert type(template_for(ds.SlipParams(), corrected)) is type(corrected)
-    with pytest.raises(ValueError, match="learned correction is the paper's hopper's robot's"):
+    with pytest.raises(ValueError, match="learned correction was trained on another hopper's robot"):
         template_for(OTHER, corrected)
+    own = dataclasses.replace(corrected, **{k: getattr(other, k) for k in ("mass", "leg_length", "stiffness",
+                                                                           "min_leg_length")})
+    assert type(template_for(OTHER, own)) is type(corrected)   # a correction trained on OTHER's robot is its own
 
 
 def test_the_paper_hoppers_run_records_the_robot_and_template_it_did_before():

@@ -35,13 +35,16 @@ def planned_hops(result: dict, case) -> list[Hop]:
     return hops
 
 
-def robot_hops(label: str, case, goal_x: float, template: SlipParams) -> list[Hop]:
-    """The planned hops (``planned_hops``) of ``case`` run on the default robot without noise, ``label`` planning for
-    ``template``."""
-    from planners.drake_system import run_closed_loop
+def robot_hops(label: str, case, goal_x: float, template: SlipParams, robot=None) -> list[Hop]:
+    """The planned hops (``planned_hops``) of ``case`` run on the robot ``robot`` (``RobotParams``; None: the paper's
+    hopper's) without noise, ``label`` planning for ``template``."""
+    from dataclasses import replace
+
+    from planners.drake_system import REPLAN_AT_EVERY_APEX, run_closed_loop
 
     ApexState(*map(float, case.apex)).validate()
-    return planned_hops(run_closed_loop(label, case, goal_x, template, trajectory=True), case)
+    config = replace(REPLAN_AT_EVERY_APEX, robot=robot)
+    return planned_hops(run_closed_loop(label, case, goal_x, template, config, trajectory=True), case)
 
 
 def hop_record(hop: Hop) -> dict:

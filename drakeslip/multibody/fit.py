@@ -129,17 +129,22 @@ def fitted_template() -> SlipParams | None:
 
 def template_for(hopper: SlipParams, template: SlipParams) -> SlipParams:
     """The template the planners plan for on the robot of ``hopper`` (``RobotParams.for_hopper``), from ``template``,
-    the one fitted to the paper's hopper's robot (``TEMPLATE_FILE``), with ``hopper``'s friction: for the paper's
-    hopper ``template`` itself; for another, ``hopper`` with the fit's leg length and stiffness as factors of the
-    paper's. Every value of a hopper's robot is the paper's robot's in the hopper's units, so the factors are
-    exact for a hopper of the paper's dimensionless stiffness and friction (Froude similarity) and an estimate
-    otherwise. A template with a learned correction (``drakeslip.apex_correction.RobotTemplate``) is trained on
-    the paper's hopper's robot in its metres: ValueError for another hopper."""
+    one fitted to the paper's hopper's robot (``TEMPLATE_FILE``), with ``hopper``'s friction: for the paper's hopper
+    ``template`` itself; for another, ``hopper`` with the fit's leg length and stiffness as factors of the paper's.
+    Every value of a hopper's robot is the paper's robot's in the hopper's units, so the factors are exact for a
+    hopper of the paper's dimensionless stiffness and friction (Froude similarity) and an estimate otherwise. A
+    template with a learned correction (``drakeslip.params.RobotTemplate``, ``examples/fit_correction.py``) is
+    trained on one robot's hops in its units: it is taken as it is for the hopper whose robot that is (its SLIP is
+    the template ``fitted_template`` makes that robot's), and ValueError for another."""
     paper = SlipParams()
+    if type(template) is not SlipParams:
+        fitted = template_for(hopper, fitted_template()) if TEMPLATE_FILE.is_file() else None
+        if fitted is None or replace(template.slip, friction=hopper.friction) != fitted:
+            raise ValueError(f"the template's learned correction was trained on another hopper's robot than the "
+                             f"robot of this {hopper.mass:g} kg, {hopper.leg_length:g} m hopper (examples/"
+                             f"fit_correction.py --hopper trains one for it)")
+        return template.with_friction(hopper.friction)
     if hopper.with_friction(paper.friction) == paper:
         return template.with_friction(hopper.friction)
-    if type(template) is not SlipParams:
-        raise ValueError(f"the template's learned correction is the paper's hopper's robot's; the robot of a "
-                         f"{hopper.mass:g} kg, {hopper.leg_length:g} m hopper plans for its fitted template")
     return replace(hopper, leg_length=hopper.leg_length * template.leg_length / paper.leg_length,
                    stiffness=hopper.stiffness * template.stiffness / paper.stiffness)
