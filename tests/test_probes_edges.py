@@ -24,8 +24,6 @@ LONG_NAME = "\x1b[2J" + "x" * 50_000_000   # a terminal's clear-screen sequence,
 
 def make_files(tmp: Path) -> None:
     """The probes' files in ``tmp`` (listed under the table)."""
-    from dataclasses import asdict
-
     from drakeslip.hopper_file import load_hopper, make_hopper_folder
     from drakeslip.jobs.files import record_digest
     from planners.formats.suite import save_suite
@@ -34,9 +32,6 @@ def make_files(tmp: Path) -> None:
     (tmp / "mine.json").write_text(json.dumps(MINE))
     mine = load_hopper(tmp / "mine.json")
     save_suite(draw_suite("ditch", 7000, mine, n_terrains=1), tmp / "mine-suite.json")
-    plan = json.loads(plan_with(("params",), asdict(mine.params)))
-    plan["hopper"] = mine.to_record()
-    (tmp / "mine-plan.json").write_text(json.dumps(plan))
     for name in ("missing-weights", "unlisted", "untrained"):
         make_hopper_folder(mine, tmp / name)
     (tmp / "missing-weights" / "lstm_expert.pt").write_bytes(b"weights")
@@ -371,7 +366,7 @@ def markdown() -> str:
                             "ended by SIGINT, one line",
                             run.returncode, run.stderr, tmp))
     legend = ("TMP/mine.json: a 3 kg, 0.3 m hopper (1000 N/m, friction 0.6); TMP/mine-suite.json: a ditch suite drawn "
-              "for it; TMP/mine-plan.json: a plan recording it; TMP/missing-weights, TMP/unlisted, TMP/untrained: its "
+              "for it; TMP/missing-weights, TMP/unlisted, TMP/untrained: its "
               "hopper folders, the first with lstm_expert.pt listed in SHA256SUMS and deleted, the second with an "
               "unlisted ranker.pt, the third only hopper.json; TMP/no-manifest: hopper.json alone; TMP/s.json: two "
               "cases of S, also as TMP/c.json.cases.jsonl, TMP/link.json (a symbolic link) and TMP/hard.json (a hard "
