@@ -185,11 +185,11 @@ def checked_suite(ap: cli.ArgumentParser, args, labels: list[str], options: dict
         if maps:
             check_map_run(configs)
             template = map_template(ap, args, hopper)
-        template = next(iter(configs.values())).template
-        if args.backend == "multibody" and not maps and template is not None:
+        planar_template = next(iter(configs.values())).template
+        if args.backend == "multibody" and not maps and planar_template is not None:
             from drakeslip.multibody.fit import template_for
 
-            template_for(hopper.params, template)   # refused where it cannot be the robot's
+            template_for(hopper.params, planar_template)   # refused where it cannot be the robot's
         specs = hopper_specs(specs, hopper)
         prepare(worker_setup(specs, args.controller, not args.mlp_only))
         if maps:

@@ -116,3 +116,28 @@ def test_another_hoppers_acceptance_runs_its_own_robot_and_records_it():
     assert run["config"]["robot"]["params"] == RobotParams.for_hopper(h.params).to_dict()
     assert run["config"]["template"] == asdict(template_for(h.params, fitted_template()))
     assert len(run["cases"]) == 2 and all(c["what"] for c in run["cases"])
+
+
+@pytest.mark.parametrize("maps", [False, True], ids=["profile", "map"])
+def test_evaluate_gives_the_robot_the_template_it_is_told(example, tmp_path, maps):
+    """``evaluate.py --backend multibody --template``: on a profile suite the planar fit made the hopper's robot's, on
+    a map suite the spatial fit (each checked before any case runs)."""
+    from drakeslip.hopper_file import load_hopper
+    from drakeslip.spatial.multibody.fit import FIT_FILE, fitted_template as spatial_fit
+    from planners.formats.map_suite import make_map_suite, save_map_suite
+
+    module = example("evaluate")
+    if maps:
+        suite, template = tmp_path / "gaps.json", str(FIT_FILE)
+        save_map_suite(make_map_suite("gaps", 3, n_maps=1, speeds=(1.0,), heights=(0.8,)), suite)
+    else:
+        suite, template = "suites/ditch.json", "drakeslip/multibody/template.json"
+    ap = module.arguments()
+    args = ap.parse_args(["--suite", str(suite), "--backend", "multibody", "--template", template, "--planners",
+                          "step@robust", "--out", str(tmp_path / "r.json")])
+    labels, options = module.checked_labels(ap, args)
+    on_maps = module.on_maps(ap, args)
+    configs = module.loop_configs(ap, args, labels, on_maps)
+    _, _, configs = module.checked_suite(ap, args, labels, options, configs, on_maps)
+    wanted = spatial_fit(ds.SlipParams()) if maps else load_hopper(template).params
+    assert on_maps == maps and configs["step@robust"].template == wanted
