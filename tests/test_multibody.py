@@ -60,7 +60,7 @@ def test_the_controller_and_the_monitor_take_the_robots_geometry_from_its_model(
     assert geometry.body_half == pytest.approx((box.width() / 2, box.height() / 2), rel=1e-12)
     assert (hd.controller.leg_com, hd.controller.leg_inertia) == (geometry.leg_com, geometry.leg_inertia)
     assert HopMonitor(hd, ds.Terrain.flat(), hd.diagram.CreateDefaultContext(), None).body_half == geometry.body_half
-    assert stance_time(ds.SlipParams()) == STANCE_TIME and hd.controller.stance_time == STANCE_TIME
+    assert stance_time(ds.SlipParams()) == STANCE_TIME and hd.controller.scaled.stance_time == STANCE_TIME
     assert stance_time(ds.SlipParams(leg_length=1.0)) == pytest.approx(STANCE_TIME * np.sqrt(2))
 
 

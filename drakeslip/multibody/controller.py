@@ -174,9 +174,9 @@ class HopperController(LeafSystem):
     Parameters
       ``params`` (the robot the controller knows: a noise profile's model mismatch runs another plant),
       ``layout`` (the robot in the plant), ``inject_energy`` (False: the leg actuator only retracts and extends
-      the leg in flight, so nothing returns the energy each hop loses); the upper leg's mass distribution and the
-      stance time come from them (``model_geometry``, ``stance_time``). Everything that changes lives in the
-      Context.
+      the leg in flight, so nothing returns the energy each hop loses); the upper leg's mass distribution, the
+      gains, thresholds and stance time come from them (``model_geometry``,
+      ``drakeslip.multibody.gains.control_constants``). Everything that changes lives in the Context.
     """
 
     def __init__(self, params: RobotParams, layout: StateLayout, inject_energy: bool = True):
@@ -185,8 +185,7 @@ class HopperController(LeafSystem):
         self._sensed = list(layout.q) + list(layout.v)
         geometry = model_geometry(params)
         self.leg_com, self.leg_inertia = geometry.leg_com, geometry.leg_inertia
-        self.scaled = control_constants(params.slip)   # the gains and thresholds in this hopper's units
-        self.stance_time = self.scaled.stance_time
+        self.scaled = control_constants(params.slip)   # the gains, thresholds and stance time in this hopper's units
         self.pitch_inertia = params.body_pitch_inertia
         self.foot_share = params.foot_mass / params.slip.mass
         # the leg's inertia about the hip in flight (leg retracted; the foot's mass reduced by the body's)
@@ -219,7 +218,7 @@ class HopperController(LeafSystem):
     def raibert_angle(self, xdot: float, speed: float) -> float:
         """The leg angle that puts the foot at the neutral point (half the stance's travel ahead of the hip)
         plus ``SPEED_GAIN`` times the speed error: Raibert's speed control for hopping without footholds."""
-        return neutral_angle(xdot, self.params.slip.leg_length, self.stance_time,
+        return neutral_angle(xdot, self.params.slip.leg_length, self.scaled.stance_time,
                              self.scaled.speed_gain * (xdot - speed))
 
     def _update(self, context, discrete_state):

@@ -8,7 +8,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from drakeslip.multibody.controller import neutral_angle
-from drakeslip.multibody.gains import CLEARANCE, stance_time
+from drakeslip.multibody.gains import CLEARANCE, control_constants
 from drakeslip.multibody.robot import RobotParams
 from drakeslip.params import SlipParams
 from drakeslip.state import ApexState
@@ -33,7 +33,8 @@ class EnergyPump:
     template to climb anything ahead, say) it hops on the spot's level ground instead, at its speed by Raibert's
     placement, where the ground is ``level`` [m] for the hop (``room``), up to PUMPS_WITHOUT_PLAN times in a row.
     ``reach`` [m]: hip to the foot's contact at the leg's rest length; ``stance`` [s]: the robot's stance time
-    (``stance_time``); ``clearance`` [m]: the controller's ``CLEARANCE`` in the robot's lengths."""
+    (``drakeslip.multibody.gains.stance_time``); ``clearance`` [m]: the controller's ``CLEARANCE`` in the robot's
+    lengths (both from ``control_constants``)."""
 
     reach: float
     rise: float
@@ -45,9 +46,8 @@ class EnergyPump:
     def for_robot(cls, robot: RobotParams, params: SlipParams) -> "EnergyPump":
         """``robot``'s pump when it plans for the template ``params``: its leg's reach and stance time, PUMP_RISE
         and LEVEL in the template's lengths."""
-        length = units_of(params).length
-        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length, stance_time(robot.slip),
-                   CLEARANCE * units_of(robot.slip).length)
+        length, scaled = units_of(params).length, control_constants(robot.slip)
+        return cls(robot.slip.leg_length, PUMP_RISE * length, LEVEL * length, scaled.stance_time, scaled.clearance)
 
     def wanted(self, planned_apexes, seen: ApexState, sensed: Terrain, gravity: float, pumps_in_a_row: int,
                safe_hop: bool = False) -> bool:
