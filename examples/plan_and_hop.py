@@ -189,10 +189,10 @@ def hop_robot(planner, terrain, apex, params, config, args) -> int:
     from drakeslip.multibody.robot import RobotParams
     from planners.drake_system import run_closed_loop
 
-    template = fitted_template()   # the robot of the hopper, planned for with its fitted template
+    robot, template = RobotParams.for_hopper(params), fitted_template()   # the hopper's robot, its fitted template
     template = params if template is None else template_for(params, template)
     result = run_closed_loop(planner, SimpleNamespace(id="demo", terrain=terrain, apex=apex), args.goal, template,
-                             replace(config, robot=RobotParams.for_hopper(params)), trajectory=True)
+                             replace(config, robot=robot), trajectory=True)
     log = result["log"]
     for i, p in enumerate(result["plans"]):
         print(f"plan {i}: from x={p['apex'][0]:.2f}: {' '.join(f'{x:.2f}' for x in p['footholds']) or p['message']}")
@@ -200,13 +200,14 @@ def hop_robot(planner, terrain, apex, params, config, args) -> int:
     print(f"{args.planner} on the multibody robot, {where(args)}: {outcome} at x = "
           f"{result['final_x']:.2f}; largest body pitch {result['max_pitch']:.3f} rad; {result['simulated_s']:.1f} s "
           f"simulated in {result['wall_s']:.1f} s")
-    save_figure(plot_robot_run(log, terrain), result, terrain, args,
+    save_figure(plot_robot_run(log, terrain, robot), result, terrain, args,
                 f"{args.planner} on the multibody robot, {where(args)}: {outcome}")
     if args.html:
         planned, predicted = executed_plans(planner.plans, result["plans"])
         ending = "reached the goal" if result["success"] else f"failed ({result['failure']})"
         write_robot_replay(log, terrain, args.html, planned, predicted,
-                           title=f"plan_and_hop.py: {args.planner} on the multibody robot, {where(args)}, {ending}")
+                           title=f"plan_and_hop.py: {args.planner} on the multibody robot, {where(args)}, {ending}",
+                           robot=robot)
         print(f"replay: {args.html}")
     return cli.OK if result["success"] else cli.FAILED
 

@@ -141,3 +141,28 @@ def test_evaluate_gives_the_robot_the_template_it_is_told(example, tmp_path, map
     _, _, configs = module.checked_suite(ap, args, labels, options, configs, on_maps)
     wanted = spatial_fit(ds.SlipParams()) if maps else load_hopper(template).params
     assert on_maps == maps and configs["step@robust"].template == wanted
+
+
+def test_plan_and_hop_draws_the_hoppers_own_robot(run_script, tmp_path, monkeypatch):
+    """``plan_and_hop.py --hopper H --backend multibody``: the figure and the replay draw H's robot (its parts'
+    sizes), not the paper's."""
+    import json
+
+    from drakeslip.multibody import replay
+
+    drawn = []
+    for name in ("plot_robot_run", "write_robot_replay"):
+        real = getattr(replay, name)
+        def recording(*args, _real=real, **kwargs):   # the robot is plot_robot_run's third argument, a keyword here
+            drawn.append(kwargs.get("robot", args[2] if len(args) > 2 else None))
+            return _real(*args, **kwargs)
+        monkeypatch.setattr(replay, name, recording)
+    hopper = tmp_path / "big.json"
+    hopper.write_text(json.dumps({"format": "drakeslip-hopper/1", "name": "big", "mass": 14.0, "leg_length": 1.0,
+                                  "stiffness": 3200.0, "min_leg_length": 0.6}))
+    code, _, err = run_script("plan_and_hop", "--hopper", hopper, "--backend", "multibody", "--terrain", "ditch",
+                              "--seed", "3", "--out", tmp_path / "r.png", "--html", tmp_path / "r.html")
+    assert code in (0, 1), err
+    assert drawn == [RobotParams.for_hopper(SIMILAR)] * 2
+    paper_half = model_geometry(RobotParams()).body_half
+    assert model_geometry(drawn[0]).body_half == pytest.approx(tuple(2 * h for h in paper_half))
